@@ -1,0 +1,1 @@
+# ROS targets are added here in a later step

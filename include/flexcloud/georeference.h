@@ -1,0 +1,64 @@
+#pragma once
+// The whole georeferencing pipeline on a drive: GNSS to ENU, keyframe interpolation, rigid
+// alignment, control points, rubber sheet, warped trajectories and their metrics. The map is
+// warped separately with the result (cloud_warp.h), so a retune never re-reads it.
+
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "flexcloud/alignment.h"
+#include "flexcloud/control_points.h"
+#include "flexcloud/gnss.h"
+#include "flexcloud/params.h"
+#include "flexcloud/rubber_sheet.h"
+#include "flexcloud/trajectory.h"
+
+namespace flexcloud {
+
+/// What one drive provides. Give geodetic fixes or local GNSS, not both.
+struct DriveInput {
+  std::vector<RawFix> fixes;
+  std::vector<GnssPoint> local_gnss;
+  Trajectory poses;
+};
+
+struct StageSeconds {
+  double gnss = 0.0;
+  double interpolation = 0.0;
+  double alignment = 0.0;
+  double control_points = 0.0;
+  double triangulation = 0.0;
+  double trajectory_warp = 0.0;
+};
+
+struct GeoreferenceResult {
+  std::optional<Datum> datum;
+  PreparedGnss gnss;
+  PoseCounts pose_counts;
+  Trajectory poses;                                    ///< prepared SLAM poses, map frame
+  std::vector<std::optional<GnssPoint>> gnss_at_pose;  ///< interpolated GNSS per pose, ENU
+  std::size_t poses_matched = 0;
+  Eigen::Isometry3d T_enu_map = Eigen::Isometry3d::Identity();  ///< applied rigid transform
+  double scale = 1.0;  ///< scale of the similarity fit (reported, not applied)
+  ControlPointSelection control_points;
+  std::array<Eigen::Vector3d, 8> cuboid_enu;  ///< cuboid corners, aligned (ENU) frame
+  std::shared_ptr<const RubberSheet> sheet;   ///< maps map-frame points to ENU
+  Trajectory aligned;                         ///< T_enu_map * poses
+  Trajectory rubbersheet;                     ///< sheet(poses), orientations rotated too
+  ErrorStats metrics_aligned;                 ///< deviation to the GNSS at matched poses
+  ErrorStats metrics_rubbersheet;
+  std::vector<double> residual_aligned;  ///< per control point, metres
+  std::vector<double> residual_rubbersheet;
+  StageSeconds seconds;
+};
+
+/// Runs the pipeline. Throws Error (one line naming the input and the problem) when the params
+/// are invalid, no GNSS or pose is usable, the two do not overlap in time, fewer than 4 control
+/// points are usable, or the triangulation is degenerate.
+GeoreferenceResult georeference(const DriveInput& input, const Params& params);
+
+/// The rotation nearest to a linear map (polar decomposition).
+Eigen::Matrix3d nearestRotation(const Eigen::Matrix3d& m);
+
+}  // namespace flexcloud

@@ -1,0 +1,48 @@
+#pragma once
+// Text trajectories: TUM poses and GNSS tables, read with line-precise errors.
+
+#include <string>
+#include <vector>
+
+#include "flexcloud/gnss.h"
+#include "flexcloud/types.h"
+
+namespace flexcloud {
+
+enum class StampUnit {
+  kAuto,         ///< nanoseconds when every stamp is an integer and one exceeds 1e12
+  kSeconds,
+  kNanoseconds,
+};
+
+/// Parses "auto" / "s" / "ns"; throws Error otherwise.
+StampUnit parseStampUnit(const std::string& text);
+
+/// TUM file: "stamp x y z qx qy qz qw" per line; '#' comments and blank lines skipped; commas
+/// count as spaces. Non-finite numbers are kept (the pipeline counts and drops them).
+/// Throws Error "FILE:LINE: ..." for a missing file, a wrong column count or a non-number.
+Trajectory readTumFile(const std::string& path, StampUnit unit = StampUnit::kAuto);
+
+/// GNSS file "stamp lat lon alt [std_e std_n std_u]" (deg, deg, m, m); without the std-dev
+/// columns the covariance is unknown.
+std::vector<RawFix> readGeodeticGnssFile(const std::string& path,
+                                         StampUnit unit = StampUnit::kAuto);
+
+/// GNSS file "stamp x y z [sx sy sz]" in a local ENU frame (m).
+std::vector<GnssPoint> readLocalGnssFile(const std::string& path,
+                                         StampUnit unit = StampUnit::kAuto);
+
+/// The same readers on text already in memory; `name` is used in error messages.
+Trajectory parseTum(const std::string& text, const std::string& name, StampUnit unit);
+std::vector<RawFix> parseGeodeticGnss(const std::string& text, const std::string& name,
+                                      StampUnit unit);
+std::vector<GnssPoint> parseLocalGnss(const std::string& text, const std::string& name,
+                                      StampUnit unit);
+
+/// TUM text of a trajectory (stamps in seconds, 9 decimals; positions to the micrometre).
+std::string formatTum(const Trajectory& poses);
+
+/// Reads a whole file; throws Error naming it when missing or unreadable.
+std::string readWholeFile(const std::string& path);
+
+}  // namespace flexcloud

@@ -1,0 +1,76 @@
+#pragma once
+// A drive simulator that knows the ground truth: a route, the true vehicle poses, GNSS fixes with
+// noise, outages and NO_FIX, a SLAM trajectory and map distorted by realistic drift, and the
+// true position of every map point. Deterministic from its seed. No ROS in here.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "flexcloud/geodesy.h"
+#include "flexcloud/gnss.h"
+#include "flexcloud/types.h"
+
+namespace flexcloud::sim {
+
+struct SimParams {
+  std::uint64_t seed = 1;
+  /// Loop route whose SLAM is loop-closed (end error spread along the path), or an open
+  /// A-to-B route whose drift is left as it accumulated.
+  bool loop = true;
+  double length = 5000.0;  ///< m
+  double speed = 12.0;     ///< m/s
+  double stop_duration = 0.0;  ///< s standing still halfway along the route
+  double odom_rate = 10.0;     ///< Hz
+  double gnss_rate = 5.0;      ///< Hz
+  double gnss_noise_h = 0.015;  ///< m, 1-sigma, east and north
+  double gnss_noise_v = 0.03;   ///< m, 1-sigma, up
+  /// Std-devs the receiver reports (covariance of the NavSatFix); <= 0: same as the noise.
+  double reported_std_h = 0.0;
+  double reported_std_v = 0.0;
+  /// Outages: time ranges (s from the start) of degraded GNSS with this noise and reported std.
+  std::vector<TimeRange> outages;
+  double outage_noise = 1.5;  ///< m, 1-sigma, every axis
+  double outage_std = 2.0;    ///< m reported
+  /// Time ranges (s from the start) in which the receiver reports NO_FIX.
+  std::vector<TimeRange> no_fix;
+  /// GNSS clock minus SLAM clock (s): GNSS stamps are shifted by this.
+  double clock_offset = 0.0;
+  /// SLAM drift: heading and pitch bias (deg per 100 m), scale error (fraction), random walks.
+  double heading_bias = 0.1;
+  double pitch_bias = 0.04;
+  double scale_error = 0.002;
+  double rotation_walk = 5e-5;  ///< rad per sqrt(m), each axis
+  double position_walk = 1e-3;  ///< m per sqrt(m), each axis
+  /// Map: points on the ground, walls and poles up to 25 m beside the road and 10 m high.
+  std::size_t map_points = 200000;
+  double sensor_height = 1.8;  ///< m above the road
+  Datum datum{48.2620, 11.6670, 480.0};
+  double start_stamp = 1700000000.0;  ///< s, SLAM clock at the first pose
+};
+
+/// Point cloud data in a neutral form; io/cloud_io builds PCD clouds from it.
+struct SimMap {
+  std::vector<Eigen::Vector3d> slam;   ///< SLAM map frame
+  std::vector<Eigen::Vector3d> truth;  ///< true ENU of the datum, same order
+  std::vector<float> intensity;
+  std::vector<std::uint16_t> ring;
+  std::vector<std::uint32_t> label;  ///< 1 ground, 2 wall, 3 pole
+};
+
+struct SimDrive {
+  SimParams params;
+  Datum datum;
+  std::vector<RawFix> fixes;  ///< every message, NO_FIX ones included
+  Trajectory slam;            ///< odometry, SLAM map frame, SLAM clock
+  Trajectory truth;           ///< true poses in ENU at the same stamps
+  SimMap map;
+};
+
+/// Simulates a drive. Throws Error for invalid parameters.
+SimDrive simulateDrive(const SimParams& params);
+
+/// Every problem with the values, joined by "; "; empty when usable.
+std::string validate(const SimParams& params);
+
+}  // namespace flexcloud::sim

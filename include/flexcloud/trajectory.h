@@ -1,0 +1,27 @@
+#pragma once
+// Cleaning of the SLAM trajectory and arc-length helpers.
+
+#include <vector>
+
+#include "flexcloud/types.h"
+
+namespace flexcloud {
+
+/// How many poses were dropped or repaired, by reason.
+struct PoseCounts {
+  std::size_t received = 0;
+  std::size_t invalid = 0;     ///< NaN/inf stamp, position or quaternion, or a zero quaternion
+  std::size_t duplicate = 0;   ///< same stamp as an earlier pose
+  std::size_t normalised = 0;  ///< quaternion was not unit length and was normalised
+  std::size_t reordered = 0;   ///< arrived out of stamp order (kept, sorted)
+};
+
+/// Sorts by stamp (stable), drops invalid and duplicate-stamp poses, normalises quaternions.
+Trajectory preparePoses(const Trajectory& poses, PoseCounts& counts);
+
+/// Cumulative path length (m) at each position, starting at 0.
+std::vector<double> arcLength(const std::vector<Eigen::Vector3d>& positions);
+
+std::vector<Eigen::Vector3d> positionsOf(const Trajectory& poses);
+
+}  // namespace flexcloud

@@ -1,0 +1,33 @@
+# Shared by the scripts: paths, a clean PATH for the ROS tools, the workspace build.
+# Debian's ROS tools need Debian's python3 (a pyenv or conda python3 first on PATH breaks catkin).
+export PATH="/usr/bin:/bin:/usr/sbin:/sbin:${PATH}"
+unset PYTHONPATH PYTHONHOME VIRTUAL_ENV CONDA_PREFIX
+FLEXCLOUD_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+FLEXCLOUD_WS="${FLEXCLOUD_WS:-${FLEXCLOUD_ROOT}/.ws}"
+FLEXCLOUD_BUILD_TYPE="${FLEXCLOUD_BUILD_TYPE:-Release}"
+export FLEXCLOUD_ROOT FLEXCLOUD_WS
+
+log() { printf '[flexcloud] %s\n' "$*" >&2; }
+
+# Makes the workspace (src/flexcloud -> the repository) and runs catkin_make in it.
+build_workspace() {
+  mkdir -p "${FLEXCLOUD_WS}/src"
+  if [ ! -e "${FLEXCLOUD_WS}/src/flexcloud" ]; then
+    ln -s "${FLEXCLOUD_ROOT}" "${FLEXCLOUD_WS}/src/flexcloud"
+  fi
+  local jobs
+  jobs="$(nproc)"
+  log "building in ${FLEXCLOUD_WS} (${FLEXCLOUD_BUILD_TYPE}, ${jobs} jobs)"
+  (cd "${FLEXCLOUD_WS}" && catkin_make -j"${jobs}" \
+      -DCMAKE_BUILD_TYPE="${FLEXCLOUD_BUILD_TYPE}" \
+      -DPYTHON_EXECUTABLE=/usr/bin/python3 "$@" >&2)
+}
+
+# Runs a command inside the workspace's ROS environment.
+in_workspace() {
+  # shellcheck disable=SC1091
+  set +u
+  source "${FLEXCLOUD_WS}/devel/setup.bash"
+  set -u
+  "$@"
+}

@@ -1,0 +1,177 @@
+#include "flexcloud/io/text_io.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+
+namespace flexcloud {
+namespace {
+
+struct Table {
+  std::vector<std::vector<double>> rows;
+  std::vector<double> stamps;  // in seconds after unit resolution
+};
+
+[[noreturn]] void fail(const std::string& name, std::size_t line, const std::string& what) {
+  throw Error(name + ":" + std::to_string(line) + ": " + what);
+}
+
+/// Splits every data line into numbers; the first column is the stamp, kept as text for the
+/// unit decision.
+Table parseTable(const std::string& text, const std::string& name,
+                 const std::vector<std::size_t>& columns, const std::string& layout,
+                 StampUnit unit) {
+  Table t;
+  std::vector<std::string> stamp_text;
+  std::istringstream in(text);
+  std::string line;
+  std::size_t line_no = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    for (char& c : line) {
+      if (c == ',' || c == '\t' || c == '\r') c = ' ';
+    }
+    const auto first = line.find_first_not_of(' ');
+    if (first == std::string::npos || line[first] == '#') continue;
+    std::istringstream fields(line);
+    std::vector<std::string> tokens;
+    std::string tok;
+    while (fields >> tok) tokens.push_back(tok);
+    if (std::find(columns.begin(), columns.end(), tokens.size()) == columns.end()) {
+      std::string counts;
+      for (std::size_t c : columns) counts += (counts.empty() ? "" : " or ") + std::to_string(c);
+      fail(name, line_no, "expected " + layout + " (" + counts + " columns), found " +
+                              std::to_string(tokens.size()));
+    }
+    std::vector<double> row;
+    row.reserve(tokens.size());
+    for (const auto& tk : tokens) {
+      char* end = nullptr;
+      errno = 0;
+      const double v = std::strtod(tk.c_str(), &end);
+      if (end == tk.c_str() || *end != '\0') fail(name, line_no, "'" + tk + "' is not a number");
+      row.push_back(v);
+    }
+    stamp_text.push_back(tokens[0]);
+    t.rows.push_back(std::move(row));
+  }
+  bool integers = !stamp_text.empty();
+  bool large = false;
+  for (std::size_t i = 0; i < stamp_text.size(); ++i) {
+    if (stamp_text[i].find_first_of(".eEnN") != std::string::npos) integers = false;
+    if (std::abs(t.rows[i][0]) > 1e12) large = true;
+  }
+  const bool ns = unit == StampUnit::kNanoseconds || (unit == StampUnit::kAuto && integers && large);
+  t.stamps.reserve(t.rows.size());
+  for (std::size_t i = 0; i < t.rows.size(); ++i) {
+    if (ns && integers) {
+      // Split whole seconds from the rest so 19-digit stamps keep their sub-microsecond part.
+      const long long v = std::strtoll(stamp_text[i].c_str(), nullptr, 10);
+      t.stamps.push_back(static_cast<double>(v / 1000000000LL) +
+                         static_cast<double>(v % 1000000000LL) * 1e-9);
+    } else {
+      t.stamps.push_back(ns ? t.rows[i][0] * 1e-9 : t.rows[i][0]);
+    }
+  }
+  return t;
+}
+
+}  // namespace
+
+StampUnit parseStampUnit(const std::string& text) {
+  if (text == "auto") return StampUnit::kAuto;
+  if (text == "s") return StampUnit::kSeconds;
+  if (text == "ns") return StampUnit::kNanoseconds;
+  throw Error("stamp unit: '" + text + "' is not one of auto, s, ns");
+}
+
+std::string readWholeFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path + ": cannot open: " + std::strerror(errno));
+  std::ostringstream s;
+  s << in.rdbuf();
+  if (in.bad()) throw Error(path + ": read error");
+  return s.str();
+}
+
+Trajectory parseTum(const std::string& text, const std::string& name, StampUnit unit) {
+  const Table t = parseTable(text, name, {8}, "stamp x y z qx qy qz qw", unit);
+  Trajectory out;
+  out.reserve(t.rows.size());
+  for (std::size_t i = 0; i < t.rows.size(); ++i) {
+    const auto& r = t.rows[i];
+    Pose p;
+    p.stamp = t.stamps[i];
+    p.position = Eigen::Vector3d(r[1], r[2], r[3]);
+    p.orientation.coeffs() << r[4], r[5], r[6], r[7];  // x y z w
+    out.push_back(p);
+  }
+  return out;
+}
+
+std::vector<RawFix> parseGeodeticGnss(const std::string& text, const std::string& name,
+                                      StampUnit unit) {
+  const Table t = parseTable(text, name, {4, 7}, "stamp lat lon alt [std_e std_n std_u]", unit);
+  std::vector<RawFix> out;
+  out.reserve(t.rows.size());
+  for (std::size_t i = 0; i < t.rows.size(); ++i) {
+    const auto& r = t.rows[i];
+    RawFix f;
+    f.fix.stamp = t.stamps[i];
+    f.fix.lat = r[1];
+    f.fix.lon = r[2];
+    f.fix.alt = r[3];
+    f.fix.std_enu = r.size() == 7 ? Eigen::Vector3d(r[4], r[5], r[6])
+                                  : Eigen::Vector3d::Constant(std::nan(""));
+    out.push_back(f);
+  }
+  return out;
+}
+
+std::vector<GnssPoint> parseLocalGnss(const std::string& text, const std::string& name,
+                                      StampUnit unit) {
+  const Table t = parseTable(text, name, {4, 7}, "stamp x y z [sx sy sz]", unit);
+  std::vector<GnssPoint> out;
+  out.reserve(t.rows.size());
+  for (std::size_t i = 0; i < t.rows.size(); ++i) {
+    const auto& r = t.rows[i];
+    GnssPoint g;
+    g.stamp = t.stamps[i];
+    g.position = Eigen::Vector3d(r[1], r[2], r[3]);
+    g.std_dev = r.size() == 7 ? Eigen::Vector3d(r[4], r[5], r[6])
+                              : Eigen::Vector3d::Constant(std::nan(""));
+    out.push_back(g);
+  }
+  return out;
+}
+
+Trajectory readTumFile(const std::string& path, StampUnit unit) {
+  return parseTum(readWholeFile(path), path, unit);
+}
+
+std::vector<RawFix> readGeodeticGnssFile(const std::string& path, StampUnit unit) {
+  return parseGeodeticGnss(readWholeFile(path), path, unit);
+}
+
+std::vector<GnssPoint> readLocalGnssFile(const std::string& path, StampUnit unit) {
+  return parseLocalGnss(readWholeFile(path), path, unit);
+}
+
+std::string formatTum(const Trajectory& poses) {
+  std::ostringstream s;
+  s << std::fixed;
+  for (const auto& p : poses) {
+    s << std::setprecision(9) << p.stamp << ' ' << std::setprecision(6) << p.position.x() << ' '
+      << p.position.y() << ' ' << p.position.z() << ' ' << std::setprecision(9)
+      << p.orientation.x() << ' ' << p.orientation.y() << ' ' << p.orientation.z() << ' '
+      << p.orientation.w() << '\n';
+  }
+  return s.str();
+}
+
+}  // namespace flexcloud
