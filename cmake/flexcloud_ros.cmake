@@ -1,1 +1,0 @@
-# ROS targets are added here in a later step

@@ -1,0 +1,46 @@
+#pragma once
+// The files of a georeferencing run, written so that a folder never holds a half-done set:
+// everything is written into a staging folder and moved into place at the end, report.json last.
+
+#include <pcl/PCLPointCloud2.h>
+
+#include <string>
+
+#include "flexcloud/cloud_warp.h"
+#include "flexcloud/georeference.h"
+
+namespace flexcloud {
+
+/// What happened to the map, for the report.
+struct MapInfo {
+  std::string input;  ///< file or topic it came from
+  WarpStats warp;
+  bool has_truth = false;
+  ErrorStats truth_aligned;      ///< rigid-only map against the ground truth
+  ErrorStats truth_rubbersheet;  ///< final map against the ground truth
+  double read_seconds = 0.0;
+  double warp_seconds = 0.0;
+  double write_seconds = 0.0;
+};
+
+/// Frame names written into origin.yaml and the report.
+struct FrameNames {
+  std::string enu = "enu";
+  std::string map = "map";
+};
+
+std::string reportJson(const GeoreferenceResult& r, const Params& params, const MapInfo* map,
+                       const FrameNames& frames);
+std::string originYaml(const GeoreferenceResult& r, const FrameNames& frames);
+std::string controlPointsText(const GeoreferenceResult& r);
+/// The interpolated GNSS at every matched pose as TUM (identity orientation).
+std::string gnssTum(const GeoreferenceResult& r);
+
+/// Writes map_georeferenced.pcd (if map != nullptr; map_info then gets write_seconds),
+/// trajectory_{gnss,slam,aligned,rubbersheet}.txt, control_points.txt, origin.yaml and
+/// report.json into `dir` (created if needed). Throws Error; on failure `dir` keeps its
+/// previous files.
+void writeOutputs(const std::string& dir, const GeoreferenceResult& r, const Params& params,
+                  const pcl::PCLPointCloud2* map, MapInfo* map_info, const FrameNames& frames);
+
+}  // namespace flexcloud

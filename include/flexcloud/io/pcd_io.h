@@ -1,0 +1,18 @@
+#pragma once
+// PCD files through PCL, with errors that name the file and the problem.
+
+#include <pcl/PCLPointCloud2.h>
+
+#include <string>
+
+namespace flexcloud {
+
+/// Reads a PCD file (ascii, binary or binary_compressed) with all its fields, organized or not.
+/// Throws Error "FILE: ..." for a missing file, a file that is not PCD, a bad header or a body
+/// shorter than the header promises.
+pcl::PCLPointCloud2 readPcd(const std::string& path);
+
+/// Writes a binary PCD under a temporary name and renames it onto `path` when complete.
+void writePcdBinary(const std::string& path, const pcl::PCLPointCloud2& cloud);
+
+}  // namespace flexcloud

@@ -1,0 +1,37 @@
+#pragma once
+// Reading a drive from a rosbag through the same handlers the live node uses.
+
+#include <functional>
+#include <string>
+
+#include <pcl/PCLPointCloud2.h>
+
+#include "flexcloud/ros/drive_collector.h"
+
+namespace flexcloud {
+
+/// Topic names; an empty name means: the bag's only topic of a fitting type.
+struct BagTopics {
+  std::string fix;   ///< sensor_msgs/NavSatFix
+  std::string odom;  ///< nav_msgs/Odometry, geometry_msgs/PoseStamped or nav_msgs/Path
+  std::string map;   ///< sensor_msgs/PointCloud2 (optional; never auto-picked)
+};
+
+struct BagSummary {
+  std::string fix_topic;
+  std::string odom_topic;
+  std::string odom_type;
+  std::string map_topic;
+  std::size_t fixes = 0;
+  std::size_t poses = 0;  ///< pose messages (a Path counts once)
+  std::size_t maps = 0;
+};
+
+/// Plays the bag into the collector (and the latest map cloud into *map when map != nullptr and
+/// a map topic is given). Throws Error "BAG: ..." for an unreadable or truncated bag, a missing
+/// topic or a topic of the wrong type. `progress` (optional) gets the fraction read so far.
+BagSummary readBag(const std::string& path, const BagTopics& topics, DriveCollector& collector,
+                   pcl::PCLPointCloud2* map = nullptr,
+                   const std::function<void(double)>& progress = {});
+
+}  // namespace flexcloud

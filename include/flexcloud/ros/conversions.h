@@ -1,0 +1,43 @@
+#pragma once
+// Every conversion between ROS messages and core types lives here.
+
+#include <nav_msgs/Odometry.h>
+#include <nav_msgs/Path.h>
+#include <geometry_msgs/PoseStamped.h>
+#include <sensor_msgs/NavSatFix.h>
+#include <sensor_msgs/PointCloud2.h>
+
+#include <pcl/PCLPointCloud2.h>
+
+#include "flexcloud/geodesy.h"
+#include "flexcloud/gnss.h"
+#include "flexcloud/types.h"
+
+namespace flexcloud::ros_conv {
+
+/// NO_FIX status -> has_fix false. Covariance type UNKNOWN, or an all-zero covariance -> NaN
+/// std-devs (the pipeline then uses default_std_dev or drops the fix). Std-devs are the square
+/// roots of the ENU diagonal.
+RawFix fromNavSatFix(const sensor_msgs::NavSatFix& msg);
+Pose fromPose(const ros::Time& stamp, const geometry_msgs::Pose& pose);
+Pose fromOdometry(const nav_msgs::Odometry& msg);
+Pose fromPoseStamped(const geometry_msgs::PoseStamped& msg);
+Trajectory fromPath(const nav_msgs::Path& msg);
+
+sensor_msgs::NavSatFix toNavSatFix(const RawFix& fix, const std::string& frame_id);
+nav_msgs::Odometry toOdometry(const Pose& pose, const std::string& frame_id,
+                              const std::string& child_frame_id);
+nav_msgs::Path toPath(const Trajectory& poses, const std::string& frame_id);
+/// A path of bare positions (identity orientation), e.g. GNSS.
+nav_msgs::Path toPath(const std::vector<Eigen::Vector3d>& positions,
+                      const std::vector<double>& stamps, const std::string& frame_id);
+geometry_msgs::Pose toPoseMsg(const Eigen::Isometry3d& t);
+
+/// Seconds as a ros::Time; throws flexcloud::Error when negative or out of range.
+ros::Time toTime(double seconds);
+
+void toCloudMsg(const pcl::PCLPointCloud2& cloud, const std::string& frame_id,
+                sensor_msgs::PointCloud2& msg);
+void fromCloudMsg(const sensor_msgs::PointCloud2& msg, pcl::PCLPointCloud2& cloud);
+
+}  // namespace flexcloud::ros_conv

@@ -1,0 +1,52 @@
+#pragma once
+// Collects the drive from ROS messages. Live subscribers and the bag reader call the same
+// handlers, so both inputs take one path into the core.
+
+#include <mutex>
+#include <string>
+
+#include <geometry_msgs/PoseStamped.h>
+#include <nav_msgs/Odometry.h>
+#include <nav_msgs/Path.h>
+#include <sensor_msgs/NavSatFix.h>
+
+#include "flexcloud/georeference.h"
+
+namespace flexcloud {
+
+/// Thread-safe accumulator of fixes and poses.
+class DriveCollector {
+ public:
+  /// Keeps at most this many fixes and poses each (an hour at 100 Hz is 360000); beyond it the
+  /// oldest half is dropped and counted, so memory stays bounded on an endless live feed.
+  explicit DriveCollector(std::size_t max_messages = 2000000) : max_(max_messages) {}
+
+  void handleFix(const sensor_msgs::NavSatFix& msg);
+  void handleOdometry(const nav_msgs::Odometry& msg);
+  void handlePose(const geometry_msgs::PoseStamped& msg);
+  /// A SLAM back end's optimized path: it replaces every pose collected so far.
+  void handlePath(const nav_msgs::Path& msg);
+
+  /// A copy of everything collected (the pipeline runs on it while collection goes on).
+  DriveInput snapshot() const;
+  /// Frame id of the poses (the SLAM map frame), empty until a pose arrived.
+  std::string mapFrame() const;
+  std::size_t fixCount() const;
+  std::size_t poseCount() const;
+  /// Messages dropped to keep memory bounded.
+  std::size_t evicted() const;
+  void clear();
+
+ private:
+  void setFrame(const std::string& frame);
+  template <typename T>
+  void pushBounded(std::vector<T>& v, T item);
+
+  mutable std::mutex mutex_;
+  DriveInput data_;
+  std::string frame_;
+  std::size_t max_;
+  std::size_t evicted_ = 0;
+};
+
+}  // namespace flexcloud

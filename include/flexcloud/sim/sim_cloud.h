@@ -1,0 +1,18 @@
+#pragma once
+// PCD clouds of a simulated map.
+
+#include <pcl/PCLPointCloud2.h>
+
+#include "flexcloud/sim/drive_simulator.h"
+
+namespace flexcloud::sim {
+
+/// The SLAM map as a SLAM system writes it: x y z (float32, map frame), intensity (float32),
+/// ring (uint16), label (uint32).
+pcl::PCLPointCloud2 slamCloud(const SimMap& map);
+
+/// The truth: the same points in the same order, x y z as float64 in the true ENU frame of the
+/// simulator's datum, with the same other fields.
+pcl::PCLPointCloud2 truthCloud(const SimMap& map);
+
+}  // namespace flexcloud::sim

@@ -1,0 +1,135 @@
+#include "flexcloud/cloud_warp.h"
+
+#include <cmath>
+#include <cstring>
+#include <thread>
+#include <vector>
+
+namespace flexcloud {
+
+std::atomic<bool> g_cancel{false};
+
+XyzLayout XyzLayout::of(const pcl::PCLPointCloud2& cloud, const std::string& name) {
+  XyzLayout l;
+  l.point_step = cloud.point_step;
+  l.points = static_cast<std::size_t>(cloud.width) * cloud.height;
+  if (cloud.data.size() != l.points * l.point_step) {
+    throw Error(name + ": data holds " + std::to_string(cloud.data.size()) + " bytes, but " +
+                std::to_string(l.points) + " points of " + std::to_string(l.point_step) +
+                " bytes need " + std::to_string(l.points * l.point_step));
+  }
+  const char* axes[3] = {"x", "y", "z"};
+  for (int a = 0; a < 3; ++a) {
+    bool found = false;
+    for (const auto& f : cloud.fields) {
+      if (f.name != axes[a]) continue;
+      found = true;
+      if (f.datatype != pcl::PCLPointField::FLOAT32 && f.datatype != pcl::PCLPointField::FLOAT64) {
+        throw Error(name + ": field " + f.name + " is not FLOAT32 or FLOAT64 (type " +
+                    std::to_string(f.datatype) + ")");
+      }
+      l.is_double[a] = f.datatype == pcl::PCLPointField::FLOAT64;
+      l.offset[a] = f.offset;
+      if (f.offset + (l.is_double[a] ? 8u : 4u) > l.point_step) {
+        throw Error(name + ": field " + f.name + " lies outside the point (offset " +
+                    std::to_string(f.offset) + ", point step " + std::to_string(l.point_step) + ")");
+      }
+    }
+    if (!found) throw Error(name + ": the cloud has no '" + axes[a] + "' field");
+  }
+  return l;
+}
+
+Eigen::Vector3d XyzLayout::get(const std::uint8_t* point) const {
+  Eigen::Vector3d p;
+  for (int a = 0; a < 3; ++a) {
+    if (is_double[a]) {
+      std::memcpy(&p(a), point + offset[a], sizeof(double));
+    } else {
+      float v;
+      std::memcpy(&v, point + offset[a], sizeof(float));
+      p(a) = v;
+    }
+  }
+  return p;
+}
+
+void XyzLayout::set(std::uint8_t* point, const Eigen::Vector3d& p) const {
+  for (int a = 0; a < 3; ++a) {
+    if (is_double[a]) {
+      std::memcpy(point + offset[a], &p(a), sizeof(double));
+    } else {
+      const auto v = static_cast<float>(p(a));
+      std::memcpy(point + offset[a], &v, sizeof(float));
+    }
+  }
+}
+
+int resolveThreads(int requested) {
+  if (requested > 0) return requested;
+  return static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
+WarpStats warpCloud(pcl::PCLPointCloud2& cloud, const RubberSheet& sheet, int threads,
+                    const std::string& name) {
+  const XyzLayout layout = XyzLayout::of(cloud, name);
+  const std::size_t n = layout.points;
+  const int workers = std::max(1, std::min<int>(resolveThreads(threads),
+                                                static_cast<int>(n / 65536 + 1)));
+  std::vector<WarpStats> part(static_cast<std::size_t>(workers));
+  std::atomic<bool> cancelled{false};
+  auto work = [&](int w) {
+    const std::size_t begin = n * static_cast<std::size_t>(w) / static_cast<std::size_t>(workers);
+    const std::size_t end = n * static_cast<std::size_t>(w + 1) / static_cast<std::size_t>(workers);
+    WarpStats& s = part[static_cast<std::size_t>(w)];
+    std::uint8_t* base = cloud.data.data();
+    for (std::size_t i = begin; i < end; ++i) {
+      if ((i & 0xFFFF) == 0 && g_cancel.load(std::memory_order_relaxed)) {
+        cancelled = true;
+        return;
+      }
+      std::uint8_t* pt = base + i * layout.point_step;
+      const Eigen::Vector3d p = layout.get(pt);
+      ++s.points;
+      if (!p.allFinite()) {
+        ++s.non_finite;
+        continue;
+      }
+      const auto loc = sheet.locate(p);
+      if (loc.outside) ++s.outside;
+      layout.set(pt, RubberSheet::apply(sheet.affineAt(loc), p));
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int w = 1; w < workers; ++w) pool.emplace_back(work, w);
+  work(0);
+  for (auto& t : pool) t.join();
+  if (cancelled) throw Error(name + ": warp cancelled");
+  WarpStats total;
+  for (const auto& s : part) {
+    total.points += s.points;
+    total.outside += s.outside;
+    total.non_finite += s.non_finite;
+  }
+  return total;
+}
+
+ErrorStats compareClouds(const pcl::PCLPointCloud2& cloud, const pcl::PCLPointCloud2& truth,
+                         const std::function<Eigen::Vector3d(const Eigen::Vector3d&)>& f) {
+  const XyzLayout a = XyzLayout::of(cloud, "map");
+  const XyzLayout b = XyzLayout::of(truth, "truth");
+  if (a.points != b.points) {
+    throw Error("truth: " + std::to_string(b.points) + " points, the map has " +
+                std::to_string(a.points));
+  }
+  ErrorAccumulator acc;
+  for (std::size_t i = 0; i < a.points; ++i) {
+    const Eigen::Vector3d p = a.get(cloud.data.data() + i * a.point_step);
+    const Eigen::Vector3d t = b.get(truth.data.data() + i * b.point_step);
+    if (!p.allFinite() || !t.allFinite()) continue;
+    acc.add((f(p) - t).norm());
+  }
+  return acc.stats();
+}
+
+}  // namespace flexcloud

@@ -1,0 +1,220 @@
+#include "flexcloud/io/outputs.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iomanip>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "flexcloud/io/atomic_file.h"
+#include "flexcloud/io/param_table.h"
+#include "flexcloud/io/pcd_io.h"
+#include "flexcloud/io/text_io.h"
+
+namespace flexcloud {
+namespace {
+
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+json stats(const ErrorStats& s) {
+  return {{"mae", s.mae}, {"std", s.std}, {"max", s.max}, {"rmse", s.rmse}, {"count", s.count}};
+}
+
+json paramsJson(const Params& params) {
+  Params p = params;
+  json j;
+  for (const auto& ref : paramRefs(p)) {
+    switch (ref.kind) {
+      case ParamRef::Kind::kDouble:
+        j[ref.name] = std::isfinite(*ref.d) ? json(*ref.d) : json(nullptr);
+        break;
+      case ParamRef::Kind::kInt:
+        j[ref.name] = *ref.i;
+        break;
+      case ParamRef::Kind::kInterpolation:
+        j[ref.name] = toString(*ref.mode);
+        break;
+    }
+  }
+  j["excluded_ranges"] = json::array();
+  for (const auto& r : p.excluded_ranges) j["excluded_ranges"].push_back({r.begin, r.end});
+  return j;
+}
+
+/// A staging folder inside the output folder; removed with whatever is left in it.
+class Staging {
+ public:
+  explicit Staging(const std::string& dir) : dir_(dir) {
+    makeDirectories(dir);
+    stage_ = (fs::path(dir) / (".flexcloud-staging-" + std::to_string(::getpid()))).string();
+    std::error_code ec;
+    fs::remove_all(stage_, ec);
+    makeDirectories(stage_);
+  }
+  ~Staging() {
+    std::error_code ec;
+    fs::remove_all(stage_, ec);
+  }
+  std::string path(const std::string& name) {
+    names_.push_back(name);
+    return (fs::path(stage_) / name).string();
+  }
+  /// Moves every staged file into place in the order they were named.
+  void commit() {
+    for (const auto& n : names_) {
+      const fs::path from = fs::path(stage_) / n;
+      const fs::path to = fs::path(dir_) / n;
+      if (std::rename(from.c_str(), to.c_str()) != 0) {
+        throw Error(to.string() + ": cannot move the finished file into place");
+      }
+    }
+  }
+
+ private:
+  std::string dir_;
+  std::string stage_;
+  std::vector<std::string> names_;
+};
+
+}  // namespace
+
+std::string reportJson(const GeoreferenceResult& r, const Params& params, const MapInfo* map,
+                       const FrameNames& frames) {
+  json j;
+  j["tool"] = "flexcloud";
+  j["frames"] = {{"enu", frames.enu}, {"map", frames.map}};
+  j["datum"] = r.datum ? json{{"lat", r.datum->lat}, {"lon", r.datum->lon}, {"alt", r.datum->alt}}
+                       : json(nullptr);
+  json t = json::array();
+  const Eigen::Matrix4d m = r.T_enu_map.matrix();
+  for (int i = 0; i < 4; ++i) t.push_back({m(i, 0), m(i, 1), m(i, 2), m(i, 3)});
+  j["T_enu_map"] = t;
+  j["scale"] = r.scale;
+  const auto& gd = r.gnss.dropped;
+  const auto& cp = r.control_points;
+  json counts = {
+      {"fixes_received", r.gnss.received},
+      {"fixes_used", r.gnss.points.size()},
+      {"fixes_dropped", gd.total()},
+      {"fixes_dropped_by_reason",
+       {{"no_fix", gd.no_fix},
+        {"invalid", gd.invalid},
+        {"unknown_covariance", gd.unknown_covariance},
+        {"duplicate", gd.duplicate},
+        {"jump", gd.outlier}}},
+      {"poses_received", r.pose_counts.received},
+      {"poses", r.poses.size()},
+      {"poses_dropped",
+       {{"invalid", r.pose_counts.invalid}, {"duplicate", r.pose_counts.duplicate}}},
+      {"poses_normalised", r.pose_counts.normalised},
+      {"poses_reordered", r.pose_counts.reordered},
+      {"poses_matched", r.poses_matched},
+      {"control_points", cp.points.size()},
+      {"control_points_requested", cp.requested},
+      {"control_points_replaced", cp.replaced},
+      {"control_points_skipped", cp.skipped},
+      {"control_points_merged", cp.merged + (r.sheet ? r.sheet->merged() : 0)},
+      {"tetrahedra", r.sheet ? r.sheet->numTetrahedra() : 0},
+      {"tetrahedra_degenerate", r.sheet ? r.sheet->degenerate() : 0},
+      {"map_points", map ? map->warp.points : 0},
+      {"points_outside", map ? map->warp.outside : 0},
+      {"points_non_finite", map ? map->warp.non_finite : 0},
+  };
+  j["counts"] = counts;
+  j["metrics"] = {{"aligned", stats(r.metrics_aligned)},
+                  {"rubbersheet", stats(r.metrics_rubbersheet)}};
+  if (map != nullptr && map->has_truth) {
+    j["map_vs_truth"] = {{"aligned", stats(map->truth_aligned)},
+                         {"rubbersheet", stats(map->truth_rubbersheet)}};
+  }
+  j["params"] = paramsJson(params);
+  const auto& s = r.seconds;
+  j["seconds"] = {{"gnss", s.gnss},
+                  {"interpolation", s.interpolation},
+                  {"alignment", s.alignment},
+                  {"control_points", s.control_points},
+                  {"triangulation", s.triangulation},
+                  {"trajectory_warp", s.trajectory_warp},
+                  {"map_read", map ? map->read_seconds : 0.0},
+                  {"map_warp", map ? map->warp_seconds : 0.0},
+                  {"map_write", map ? map->write_seconds : 0.0}};
+  return j.dump(2) + "\n";
+}
+
+std::string originYaml(const GeoreferenceResult& r, const FrameNames& frames) {
+  std::ostringstream s;
+  s << std::setprecision(12);
+  s << "# The frame of map_georeferenced.pcd: local East-North-Up (x east, y north, z up, metres),\n"
+       "# tangent to the WGS84 ellipsoid at the datum (GeographicLib LocalCartesian).\n";
+  s << "frame: " << frames.enu << "\n";
+  if (r.datum) {
+    s << "datum:\n  latitude: " << r.datum->lat << "    # degrees, WGS84\n  longitude: "
+      << r.datum->lon << "    # degrees, WGS84\n  altitude: " << r.datum->alt
+      << "    # metres above the WGS84 ellipsoid\n";
+  } else {
+    s << "datum: null    # the GNSS came in local coordinates without a datum\n";
+  }
+  s << "# Rigid part of the georeferencing: p_" << frames.enu << " = T_enu_map * p_" << frames.map
+    << " (row-major 4x4);\n# the rubber sheet adds the drift correction on top.\n";
+  s << "map_frame: " << frames.map << "\nT_enu_map: [";
+  const Eigen::Matrix4d m = r.T_enu_map.matrix();
+  for (int i = 0; i < 16; ++i) s << (i ? ", " : "") << m(i / 4, i % 4);
+  s << "]\nscale: " << r.scale << "\n";
+  return s.str();
+}
+
+std::string controlPointsText(const GeoreferenceResult& r) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(6);
+  s << "# pose_index stamp source_x source_y source_z (map) target_x target_y target_z (enu) "
+       "std_dev residual_aligned residual_rubbersheet\n";
+  const auto& cps = r.control_points.points;
+  for (std::size_t i = 0; i < cps.size(); ++i) {
+    const auto& c = cps[i];
+    s << c.pose_index << ' ' << std::setprecision(9) << c.stamp << std::setprecision(6) << ' '
+      << c.source.x() << ' ' << c.source.y() << ' ' << c.source.z() << ' ' << c.target.x() << ' '
+      << c.target.y() << ' ' << c.target.z() << ' ' << c.std_dev << ' ' << r.residual_aligned[i]
+      << ' ' << r.residual_rubbersheet[i] << '\n';
+  }
+  return s.str();
+}
+
+std::string gnssTum(const GeoreferenceResult& r) {
+  Trajectory t;
+  for (std::size_t i = 0; i < r.poses.size(); ++i) {
+    if (!r.gnss_at_pose[i]) continue;
+    Pose p;
+    p.stamp = r.poses[i].stamp;
+    p.position = r.gnss_at_pose[i]->position;
+    t.push_back(p);
+  }
+  return formatTum(t);
+}
+
+void writeOutputs(const std::string& dir, const GeoreferenceResult& r, const Params& params,
+                  const pcl::PCLPointCloud2* map, MapInfo* map_info, const FrameNames& frames) {
+  Staging stage(dir);
+  if (map != nullptr) {
+    const auto t0 = std::chrono::steady_clock::now();
+    writePcdBinary(stage.path("map_georeferenced.pcd"), *map);
+    if (map_info != nullptr) {
+      map_info->write_seconds =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
+  }
+  writeTextFile(stage.path("trajectory_gnss.txt"), gnssTum(r));
+  writeTextFile(stage.path("trajectory_slam.txt"), formatTum(r.poses));
+  writeTextFile(stage.path("trajectory_aligned.txt"), formatTum(r.aligned));
+  writeTextFile(stage.path("trajectory_rubbersheet.txt"), formatTum(r.rubbersheet));
+  writeTextFile(stage.path("control_points.txt"), controlPointsText(r));
+  writeTextFile(stage.path("origin.yaml"), originYaml(r, frames));
+  writeTextFile(stage.path("report.json"), reportJson(r, params, map_info, frames));
+  if (g_cancel) throw Error(dir + ": interrupted before the outputs were moved into place");
+  stage.commit();
+}
+
+}  // namespace flexcloud

@@ -1,0 +1,124 @@
+#include "flexcloud/ros/bag_input.h"
+
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/PointCloud2.h>
+
+#include <map>
+#include <set>
+
+#include "flexcloud/ros/conversions.h"
+
+namespace flexcloud {
+namespace {
+
+const std::string kFixType = "sensor_msgs/NavSatFix";
+const std::string kOdomType = "nav_msgs/Odometry";
+const std::string kPoseType = "geometry_msgs/PoseStamped";
+const std::string kPathType = "nav_msgs/Path";
+const std::string kCloudType = "sensor_msgs/PointCloud2";
+
+std::string absolute(const std::string& topic) {
+  return topic.empty() || topic[0] == '/' ? topic : "/" + topic;
+}
+
+std::string listing(const std::map<std::string, std::string>& types) {
+  std::string s;
+  for (const auto& [topic, type] : types) s += (s.empty() ? "" : ", ") + topic + " [" + type + "]";
+  return s.empty() ? "none" : s;
+}
+
+/// The topic to read for one input: the given one (checked) or the only one of a fitting type.
+std::string resolve(const std::string& bag, const std::map<std::string, std::string>& types,
+                    const std::string& given, const std::set<std::string>& fitting,
+                    const std::string& what, const std::string& option) {
+  std::string expected;
+  for (const auto& t : fitting) expected += (expected.empty() ? "" : " or ") + t;
+  if (!given.empty()) {
+    const std::string topic = absolute(given);
+    const auto it = types.find(topic);
+    if (it == types.end()) {
+      throw Error(bag + ": topic " + topic + " is not in the bag (topics: " + listing(types) + ")");
+    }
+    if (fitting.count(it->second) == 0) {
+      throw Error(bag + ": topic " + topic + " holds " + it->second + ", expected " + expected);
+    }
+    return topic;
+  }
+  std::vector<std::string> candidates;
+  for (const auto& [topic, type] : types) {
+    if (fitting.count(type) != 0) candidates.push_back(topic);
+  }
+  if (candidates.size() == 1) return candidates.front();
+  if (candidates.empty()) {
+    throw Error(bag + ": no " + what + " topic (" + expected + ") in the bag (topics: " +
+                listing(types) + ")");
+  }
+  std::string names;
+  for (const auto& c : candidates) names += (names.empty() ? "" : ", ") + c;
+  throw Error(bag + ": several " + what + " topics (" + names + "); choose one with " + option);
+}
+
+}  // namespace
+
+BagSummary readBag(const std::string& path, const BagTopics& topics, DriveCollector& collector,
+                   pcl::PCLPointCloud2* map, const std::function<void(double)>& progress) {
+  BagSummary out;
+  try {
+    rosbag::Bag bag;
+    bag.open(path, rosbag::bagmode::Read);
+    std::map<std::string, std::string> types;
+    {
+      rosbag::View all(bag);
+      for (const auto* c : all.getConnections()) types[c->topic] = c->datatype;
+    }
+    out.fix_topic = resolve(path, types, topics.fix, {kFixType}, "GNSS fix", "--fix-topic");
+    out.odom_topic = resolve(path, types, topics.odom, {kOdomType, kPoseType, kPathType},
+                             "odometry", "--odom-topic");
+    out.odom_type = types.at(out.odom_topic);
+    std::vector<std::string> read{out.fix_topic, out.odom_topic};
+    if (!topics.map.empty()) {
+      out.map_topic = resolve(path, types, topics.map, {kCloudType}, "map", "--map-topic");
+      read.push_back(out.map_topic);
+    }
+    rosbag::View view(bag, rosbag::TopicQuery(read));
+    const std::size_t total = view.size();
+    std::size_t done = 0;
+    for (const rosbag::MessageInstance& m : view) {
+      const std::string& topic = m.getTopic();
+      if (topic == out.fix_topic) {
+        if (auto msg = m.instantiate<sensor_msgs::NavSatFix>()) {
+          collector.handleFix(*msg);
+          ++out.fixes;
+        }
+      } else if (topic == out.odom_topic) {
+        ++out.poses;
+        if (out.odom_type == kOdomType) {
+          if (auto msg = m.instantiate<nav_msgs::Odometry>()) collector.handleOdometry(*msg);
+        } else if (out.odom_type == kPoseType) {
+          if (auto msg = m.instantiate<geometry_msgs::PoseStamped>()) collector.handlePose(*msg);
+        } else if (auto msg = m.instantiate<nav_msgs::Path>()) {
+          collector.handlePath(*msg);
+        }
+      } else if (topic == out.map_topic && map != nullptr) {
+        if (auto msg = m.instantiate<sensor_msgs::PointCloud2>()) {
+          ros_conv::fromCloudMsg(*msg, *map);
+          ++out.maps;
+        }
+      }
+      if (progress && (++done % 20000 == 0 || done == total)) {
+        progress(static_cast<double>(done) / static_cast<double>(std::max<std::size_t>(1, total)));
+      }
+    }
+  } catch (const rosbag::BagUnindexedException&) {
+    throw Error(path + ": the bag has no index (cut short while recording?); run "
+                       "'rosbag reindex " + path + "' first");
+  } catch (const rosbag::BagException& e) {
+    throw Error(path + ": not a readable bag: " + e.what());
+  } catch (const ros::Exception& e) {
+    throw Error(path + ": corrupt message data: " + e.what());
+  }
+  return out;
+}
+
+}  // namespace flexcloud

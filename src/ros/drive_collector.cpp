@@ -1,0 +1,80 @@
+#include "flexcloud/ros/drive_collector.h"
+
+#include "flexcloud/ros/conversions.h"
+
+namespace flexcloud {
+
+template <typename T>
+void DriveCollector::pushBounded(std::vector<T>& v, T item) {
+  if (v.size() >= max_) {
+    const std::size_t drop = v.size() / 2;
+    v.erase(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(drop));
+    evicted_ += drop;
+  }
+  v.push_back(std::move(item));
+}
+
+void DriveCollector::setFrame(const std::string& frame) {
+  if (!frame.empty()) frame_ = frame;
+}
+
+void DriveCollector::handleFix(const sensor_msgs::NavSatFix& msg) {
+  RawFix f = ros_conv::fromNavSatFix(msg);
+  std::lock_guard<std::mutex> lock(mutex_);
+  pushBounded(data_.fixes, f);
+}
+
+void DriveCollector::handleOdometry(const nav_msgs::Odometry& msg) {
+  Pose p = ros_conv::fromOdometry(msg);
+  std::lock_guard<std::mutex> lock(mutex_);
+  setFrame(msg.header.frame_id);
+  pushBounded(data_.poses, p);
+}
+
+void DriveCollector::handlePose(const geometry_msgs::PoseStamped& msg) {
+  Pose p = ros_conv::fromPoseStamped(msg);
+  std::lock_guard<std::mutex> lock(mutex_);
+  setFrame(msg.header.frame_id);
+  pushBounded(data_.poses, p);
+}
+
+void DriveCollector::handlePath(const nav_msgs::Path& msg) {
+  Trajectory t = ros_conv::fromPath(msg);
+  std::lock_guard<std::mutex> lock(mutex_);
+  setFrame(msg.header.frame_id);
+  data_.poses = std::move(t);
+}
+
+DriveInput DriveCollector::snapshot() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return data_;
+}
+
+std::string DriveCollector::mapFrame() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return frame_;
+}
+
+std::size_t DriveCollector::fixCount() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return data_.fixes.size();
+}
+
+std::size_t DriveCollector::poseCount() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return data_.poses.size();
+}
+
+std::size_t DriveCollector::evicted() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return evicted_;
+}
+
+void DriveCollector::clear() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  data_ = DriveInput{};
+  frame_.clear();
+  evicted_ = 0;
+}
+
+}  // namespace flexcloud

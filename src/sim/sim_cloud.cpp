@@ -1,0 +1,60 @@
+#include "flexcloud/sim/sim_cloud.h"
+
+#include <cstring>
+
+namespace flexcloud::sim {
+namespace {
+
+pcl::PCLPointField field(const std::string& name, std::uint32_t offset, std::uint8_t type) {
+  pcl::PCLPointField f;
+  f.name = name;
+  f.offset = offset;
+  f.datatype = type;
+  f.count = 1;
+  return f;
+}
+
+template <typename T>
+void put(std::uint8_t* dst, T v) {
+  std::memcpy(dst, &v, sizeof(T));
+}
+
+pcl::PCLPointCloud2 build(const SimMap& map, bool truth) {
+  using F = pcl::PCLPointField;
+  const std::uint32_t xyz = truth ? 8 : 4;
+  const std::uint32_t base = 3 * xyz;
+  pcl::PCLPointCloud2 c;
+  c.fields = {field("x", 0, truth ? F::FLOAT64 : F::FLOAT32),
+              field("y", xyz, truth ? F::FLOAT64 : F::FLOAT32),
+              field("z", 2 * xyz, truth ? F::FLOAT64 : F::FLOAT32),
+              field("intensity", base, F::FLOAT32), field("ring", base + 4, F::UINT16),
+              field("label", base + 8, F::UINT32)};
+  c.point_step = base + 12;
+  c.height = 1;
+  c.width = static_cast<std::uint32_t>(map.slam.size());
+  c.row_step = c.point_step * c.width;
+  c.is_dense = 1;
+  c.data.assign(static_cast<std::size_t>(c.row_step), 0);
+  const auto& pts = truth ? map.truth : map.slam;
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    std::uint8_t* p = c.data.data() + i * c.point_step;
+    for (int a = 0; a < 3; ++a) {
+      if (truth) {
+        put<double>(p + a * xyz, pts[i](a));
+      } else {
+        put<float>(p + a * xyz, static_cast<float>(pts[i](a)));
+      }
+    }
+    put<float>(p + base, map.intensity[i]);
+    put<std::uint16_t>(p + base + 4, map.ring[i]);
+    put<std::uint32_t>(p + base + 8, map.label[i]);
+  }
+  return c;
+}
+
+}  // namespace
+
+pcl::PCLPointCloud2 slamCloud(const SimMap& map) { return build(map, false); }
+pcl::PCLPointCloud2 truthCloud(const SimMap& map) { return build(map, true); }
+
+}  // namespace flexcloud::sim

@@ -1,0 +1,288 @@
+// georeference: the offline tool. Reads a drive (bag or text files) and optionally a map,
+// georeferences it and writes the outputs into a folder. Exit 0 on success, 1 on bad input or
+// a failed run, 2 on a usage mistake, 130 when interrupted; the folder keeps its previous files
+// unless the run completes.
+
+#include <ros/time.h>
+
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <iostream>
+#include <optional>
+
+#include "cli.h"
+#include "flexcloud/cloud_warp.h"
+#include "flexcloud/io/config.h"
+#include "flexcloud/io/outputs.h"
+#include "flexcloud/io/param_table.h"
+#include "flexcloud/io/pcd_io.h"
+#include "flexcloud/io/text_io.h"
+#include "flexcloud/ros/bag_input.h"
+
+namespace {
+
+using namespace flexcloud;
+using cli::UsageError;
+
+constexpr const char* kUsage = R"(usage: georeference INPUT [options]
+
+INPUT, one of:
+  --bag FILE              rosbag with sensor_msgs/NavSatFix and nav_msgs/Odometry (or
+                          geometry_msgs/PoseStamped, or nav_msgs/Path: the last one is used)
+    --fix-topic T         NavSatFix topic (default: the bag's only one)
+    --odom-topic T        pose topic (default: the bag's only Odometry/PoseStamped/Path one)
+  --gnss FILE --poses FILE
+                          GNSS "stamp lat lon alt [std_e std_n std_u]" and TUM poses
+                          "stamp x y z qx qy qz qw"; stamps in s or integer ns (detected)
+    --gnss-local          GNSS file is "stamp x y z [sx sy sz]" in a local ENU frame (m)
+    --stamp-unit U        auto (default), s or ns
+
+options:
+  --map FILE.pcd          SLAM map to warp (ascii, binary or binary_compressed; all fields kept)
+  --out DIR               output folder (default: flexcloud_out)
+  --datum LAT LON ALT     ENU datum (default: the first valid fix)
+  --control-points N      number of control points (default 200)
+  --stddev-threshold M    largest GNSS std-dev (m) of a control point (default 0.1)
+  --config FILE.yaml      parameters, same keys as the ROS node's
+  --set KEY=VALUE         any parameter (repeatable), e.g. --set max_gap=2
+  --threads N             warp threads (default: all cores)
+  --truth FILE.pcd        ground-truth map in the output ENU frame (same points, same order):
+                          the report then holds the map error before and after
+  -q, --quiet             no progress on stderr
+  -h, --help
+)";
+
+struct Options {
+  std::string bag, fix_topic, odom_topic, gnss, poses, map, truth, config;
+  std::string out = "flexcloud_out";
+  bool gnss_local = false;
+  bool quiet = false;
+  StampUnit unit = StampUnit::kAuto;
+  std::vector<std::pair<std::string, std::string>> sets;  // applied after the config file
+};
+
+Options parseOptions(int argc, char** argv) {
+  cli::Args a(argc, argv);
+  Options o;
+  if (a.done()) throw UsageError("no input given (--bag, or --gnss with --poses)");
+  while (!a.done()) {
+    const std::string f = a.flag();
+    if (f == "-h" || f == "--help") {
+      std::cout << kUsage;
+      std::exit(0);
+    } else if (f == "--bag") {
+      o.bag = a.text(f);
+    } else if (f == "--fix-topic") {
+      o.fix_topic = a.text(f);
+    } else if (f == "--odom-topic") {
+      o.odom_topic = a.text(f);
+    } else if (f == "--gnss") {
+      o.gnss = a.text(f);
+    } else if (f == "--poses") {
+      o.poses = a.text(f);
+    } else if (f == "--gnss-local") {
+      o.gnss_local = true;
+    } else if (f == "--stamp-unit") {
+      o.unit = parseStampUnit(a.text(f));
+    } else if (f == "--map") {
+      o.map = a.text(f);
+    } else if (f == "--out") {
+      o.out = a.text(f);
+    } else if (f == "--datum") {
+      o.sets.emplace_back("datum_lat", a.text(f));
+      o.sets.emplace_back("datum_lon", a.text(f));
+      o.sets.emplace_back("datum_alt", a.text(f));
+    } else if (f == "--control-points") {
+      o.sets.emplace_back("control_points", a.text(f));
+    } else if (f == "--stddev-threshold") {
+      o.sets.emplace_back("stddev_threshold", a.text(f));
+    } else if (f == "--threads") {
+      o.sets.emplace_back("threads", a.text(f));
+    } else if (f == "--config") {
+      o.config = a.text(f);
+    } else if (f == "--set") {
+      const std::string kv = a.text(f);
+      const auto eq = kv.find('=');
+      if (eq == std::string::npos || eq == 0) throw UsageError("--set: '" + kv + "' is not KEY=VALUE");
+      o.sets.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
+    } else if (f == "--truth") {
+      o.truth = a.text(f);
+    } else if (f == "-q" || f == "--quiet") {
+      o.quiet = true;
+    } else {
+      throw UsageError("unknown option '" + f + "' (see --help)");
+    }
+  }
+  const bool text = !o.gnss.empty() || !o.poses.empty();
+  if (!o.bag.empty() && text) throw UsageError("give --bag or --gnss/--poses, not both");
+  if (o.bag.empty() && (o.gnss.empty() || o.poses.empty())) {
+    throw UsageError("give --bag FILE, or both --gnss FILE and --poses FILE");
+  }
+  if (!o.truth.empty() && o.map.empty()) throw UsageError("--truth needs --map");
+  return o;
+}
+
+Params loadParams(const Options& o) {
+  Params p;
+  if (!o.config.empty()) loadParamsYaml(o.config, p);
+  for (const auto& [k, v] : o.sets) setParam(p, k, v);
+  if (const std::string bad = p.validate(); !bad.empty()) throw Error("parameters: " + bad);
+  return p;
+}
+
+class Progress {
+ public:
+  explicit Progress(bool quiet) : quiet_(quiet) {}
+  void say(const std::string& s) const {
+    if (!quiet_) std::cerr << "[georeference] " << s << std::endl;
+  }
+
+ private:
+  bool quiet_;
+};
+
+double since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void checkCancel() {
+  if (g_cancel) throw Error("interrupted");
+}
+
+DriveInput loadDrive(const Options& o, const Progress& log, std::string& map_frame) {
+  if (!o.bag.empty()) {
+    DriveCollector collector;
+    log.say("reading " + o.bag);
+    BagTopics topics;
+    topics.fix = o.fix_topic;
+    topics.odom = o.odom_topic;
+    const BagSummary s = readBag(o.bag, topics, collector, nullptr, [&](double f) {
+      log.say("  bag " + std::to_string(static_cast<int>(100 * f)) + "%");
+    });
+    log.say("  " + std::to_string(s.fixes) + " fixes on " + s.fix_topic + ", " +
+            std::to_string(s.poses) + " " + s.odom_type + " on " + s.odom_topic);
+    map_frame = collector.mapFrame().empty() ? "map" : collector.mapFrame();
+    return collector.snapshot();
+  }
+  DriveInput in;
+  if (o.gnss_local) {
+    in.local_gnss = readLocalGnssFile(o.gnss, o.unit);
+  } else {
+    in.fixes = readGeodeticGnssFile(o.gnss, o.unit);
+  }
+  in.poses = readTumFile(o.poses, o.unit);
+  return in;
+}
+
+void printSummary(const GeoreferenceResult& r, const MapInfo* map, const std::string& out) {
+  char line[512];
+  std::snprintf(line, sizeof(line),
+                "flexcloud: %zu poses (%zu with GNSS), %zu control points, %zu tetrahedra\n",
+                r.poses.size(), r.poses_matched, r.control_points.points.size(),
+                r.sheet->numTetrahedra());
+  std::cout << line;
+  if (r.datum) {
+    std::snprintf(line, sizeof(line), "  datum          %.9f %.9f %.3f\n", r.datum->lat,
+                  r.datum->lon, r.datum->alt);
+    std::cout << line;
+  }
+  const auto& a = r.metrics_aligned;
+  const auto& b = r.metrics_rubbersheet;
+  std::snprintf(line, sizeof(line),
+                "  trajectory vs GNSS  aligned: MAE %.3f STD %.3f MAX %.3f m | rubber sheet: MAE "
+                "%.3f STD %.3f MAX %.3f m\n",
+                a.mae, a.std, a.max, b.mae, b.std, b.max);
+  std::cout << line;
+  if (map != nullptr) {
+    std::snprintf(line, sizeof(line),
+                  "  map            %zu points warped (%zu outside the cuboid, %zu NaN kept)\n",
+                  map->warp.points, map->warp.outside, map->warp.non_finite);
+    std::cout << line;
+    if (map->has_truth) {
+      std::snprintf(line, sizeof(line),
+                    "  map vs truth   rigid only: RMSE %.3f MAX %.3f m | rubber sheet: RMSE %.3f "
+                    "MAX %.3f m\n",
+                    map->truth_aligned.rmse, map->truth_aligned.max, map->truth_rubbersheet.rmse,
+                    map->truth_rubbersheet.max);
+      std::cout << line;
+    }
+  }
+  std::cout << "  outputs in     " << out << "\n";
+}
+
+int run(int argc, char** argv) {
+  const Options o = parseOptions(argc, argv);
+  const Params params = loadParams(o);
+  const Progress log(o.quiet);
+  FrameNames frames;
+  const DriveInput drive = loadDrive(o, log, frames.map);
+  checkCancel();
+
+  std::optional<pcl::PCLPointCloud2> map;
+  MapInfo info;
+  if (!o.map.empty()) {
+    log.say("reading " + o.map);
+    const auto t0 = std::chrono::steady_clock::now();
+    map = readPcd(o.map);
+    info.read_seconds = since(t0);
+    info.input = o.map;
+    if (static_cast<std::size_t>(map->width) * map->height == 0) {
+      throw Error(o.map + ": the map holds no points");
+    }
+    XyzLayout::of(*map, o.map);  // fail on a bad layout before the pipeline runs
+    log.say("  " + std::to_string(static_cast<std::size_t>(map->width) * map->height) +
+            " points in " + std::to_string(info.read_seconds) + " s");
+  }
+  checkCancel();
+
+  log.say("georeferencing");
+  const GeoreferenceResult r = georeference(drive, params);
+  checkCancel();
+
+  if (map) {
+    std::optional<pcl::PCLPointCloud2> truth;
+    if (!o.truth.empty()) {
+      truth = readPcd(o.truth);
+      info.has_truth = true;
+      info.truth_aligned = compareClouds(*map, *truth, [&](const Eigen::Vector3d& p) {
+        return Eigen::Vector3d(r.T_enu_map * p);
+      });
+    }
+    log.say("warping the map");
+    const auto t0 = std::chrono::steady_clock::now();
+    info.warp = warpCloud(*map, *r.sheet, params.threads, o.map);
+    info.warp_seconds = since(t0);
+    if (truth) {
+      info.truth_rubbersheet =
+          compareClouds(*map, *truth, [](const Eigen::Vector3d& p) { return p; });
+    }
+    log.say("  " + std::to_string(info.warp.points) + " points in " +
+            std::to_string(info.warp_seconds) + " s");
+  }
+  checkCancel();
+  log.say("writing " + o.out);
+  writeOutputs(o.out, r, params, map ? &*map : nullptr, map ? &info : nullptr, frames);
+  printSummary(r, map ? &info : nullptr, o.out);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::signal(SIGINT, [](int) { flexcloud::g_cancel = true; });
+  std::signal(SIGTERM, [](int) { flexcloud::g_cancel = true; });
+  ros::Time::init();
+  try {
+    return run(argc, argv);
+  } catch (const UsageError& e) {
+    std::cerr << "georeference: " << e.what() << " (see --help)" << std::endl;
+    return 2;
+  } catch (const flexcloud::Error& e) {
+    std::cerr << "georeference: " << e.what() << std::endl;
+    return flexcloud::g_cancel ? 130 : 1;
+  } catch (const std::exception& e) {
+    std::cerr << "georeference: unexpected failure: " << e.what() << std::endl;
+    return 1;
+  }
+}
