@@ -31,3 +31,22 @@ in_workspace() {
   set -u
   "$@"
 }
+
+# Installs the missing Debian packages of scripts/deps.txt; quick when nothing is missing.
+install_deps() {
+  local wanted missing=()
+  wanted="$(grep -v '^#' "${FLEXCLOUD_ROOT}/scripts/deps.txt" | tr -s ' \n' ' ')"
+  for pkg in ${wanted}; do
+    dpkg-query -W -f='${Status}' "${pkg}" 2>/dev/null | grep -q "install ok installed" \
+      || missing+=("${pkg}")
+  done
+  [ "${#missing[@]}" -eq 0 ] && return 0
+  log "installing ${#missing[@]} Debian packages: ${missing[*]}"
+  if [ "$(id -u)" -ne 0 ]; then
+    log "not root: run as root, or install them with: sudo apt-get install ${missing[*]}"
+    return 1
+  fi
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -q >&2
+  apt-get install -y -q --no-install-recommends "${missing[@]}" >&2
+}

@@ -39,10 +39,13 @@ ControlPointSelection selectControlPoints(const Trajectory& poses,
 
 /// Error-driven refinement: for each stretch between neighbouring control points (in pose
 /// order, with the stretches before the first and after the last), the pose with the largest
-/// deviation (m; NaN where the pose may not be a control point). Returns the pose indices of
-/// the `max_new` largest of these that exceed min_deviation, largest first.
+/// deviation (m; NaN where the pose may not be a control point) that lies at least
+/// min_separation metres of path (arc[i], m) from both control points of its stretch, so that
+/// a standstill or a slow stretch never gathers control points. Returns the pose indices of the
+/// `max_new` largest of these that exceed min_deviation, largest first.
 std::vector<std::size_t> pickRefinements(const ControlPointSelection& selection,
                                          const std::vector<double>& deviation,
+                                         const std::vector<double>& arc, double min_separation,
                                          std::size_t max_new, double min_deviation);
 
 /// Appends the poses as control points and keeps the selection in pose order.

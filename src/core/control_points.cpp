@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "flexcloud/trajectory.h"
 
@@ -81,13 +82,17 @@ ControlPointSelection selectControlPoints(const Trajectory& poses,
 
 std::vector<std::size_t> pickRefinements(const ControlPointSelection& selection,
                                          const std::vector<double>& deviation,
+                                         const std::vector<double>& arc, double min_separation,
                                          std::size_t max_new, double min_deviation) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
   std::vector<std::pair<double, std::size_t>> worst;  // per stretch: (deviation, pose)
   std::size_t begin = 0;
-  auto scan = [&](std::size_t from, std::size_t to) {  // poses in [from, to)
+  double s_begin = -kInf;
+  auto scan = [&](std::size_t from, std::size_t to, double s_from, double s_to) {
     double best = min_deviation;
     std::size_t arg = to;
     for (std::size_t i = from; i < to; ++i) {
+      if (arc[i] - s_from < min_separation || s_to - arc[i] < min_separation) continue;
       if (deviation[i] > best) {
         best = deviation[i];
         arg = i;
@@ -96,10 +101,11 @@ std::vector<std::size_t> pickRefinements(const ControlPointSelection& selection,
     if (arg != to) worst.emplace_back(best, arg);
   };
   for (const auto& cp : selection.points) {
-    scan(begin, cp.pose_index);
+    scan(begin, cp.pose_index, s_begin, arc[cp.pose_index]);
     begin = cp.pose_index + 1;
+    s_begin = arc[cp.pose_index];
   }
-  scan(begin, deviation.size());
+  scan(begin, deviation.size(), s_begin, kInf);
   const std::size_t n = std::min(max_new, worst.size());
   std::partial_sort(worst.begin(), worst.begin() + static_cast<std::ptrdiff_t>(n), worst.end(),
                     [](const auto& a, const auto& b) { return a.first > b.first; });

@@ -112,9 +112,17 @@ std::shared_ptr<const RubberSheet> buildSheet(const GeoreferenceResult& r, bool 
 void refineControlPoints(GeoreferenceResult& r, const Params& params, std::size_t total) {
   const double kNaN = std::numeric_limits<double>::quiet_NaN();
   std::vector<bool> usable(r.poses.size());
+  std::size_t first = r.poses.size(), last = 0;
   for (std::size_t i = 0; i < r.poses.size(); ++i) {
     usable[i] = isUsableGnss(r.gnss_at_pose[i], r.poses[i].stamp, params);
+    if (r.gnss_at_pose[i]) first = std::min(first, i), last = std::max(last, i);
   }
+  const std::vector<double> arc = arcLength(positionsOf(r.poses));
+  // A refinement keeps 1/20 of the even spacing (at the full count) of path from its neighbours:
+  // enough that a standstill gathers no control points, small enough not to cost accuracy
+  // (a quarter of the spacing raised the real drive's MAX at 50 control points from 1.4 to 13 m).
+  const double separation =
+      0.05 * (arc[last] - arc[first]) / static_cast<double>(std::max<std::size_t>(1, total - 1));
   while (r.control_points.points.size() < total) {
     const auto sheet = buildSheet(r, false);
     std::vector<double> deviation(r.poses.size(), kNaN);
@@ -129,7 +137,8 @@ void refineControlPoints(GeoreferenceResult& r, const Params& params, std::size_
     }
     const std::size_t have = r.control_points.points.size();
     const std::size_t round = std::min(total - have, std::max<std::size_t>(1, have / 4));
-    const auto picks = pickRefinements(r.control_points, deviation, round, kMinRefineDeviation);
+    const auto picks = pickRefinements(r.control_points, deviation, arc, separation, round,
+                                       kMinRefineDeviation);
     if (picks.empty()) break;
     addControlPoints(r.control_points, picks, r.poses, r.gnss_at_pose);
   }

@@ -6,6 +6,9 @@
 namespace flexcloud {
 namespace {
 
+/// Stamps closer than this are the same instant (text files print stamps with limited digits).
+constexpr double kSameStamp = 1e-6;
+
 /// The GNSS point at stamp t from the cubic through the support points (time-parametrised;
 /// for four points this is the cubic B-spline that interpolates them).
 GnssPoint evaluateCubic(const std::vector<const GnssPoint*>& support, double t) {
@@ -87,8 +90,12 @@ std::vector<std::optional<GnssPoint>> interpolateGnss(const std::vector<GnssPoin
     const auto after = static_cast<std::size_t>(it - gnss.begin());
     if (params.interpolation == InterpolationMode::kNearest) {
       out[k] = nearest(gnss, after, t, params.max_gap);
-    } else if (after > 0 && gnss[after - 1].stamp == t) {
+    } else if (after > 0 && t - gnss[after - 1].stamp <= kSameStamp) {
       out[k] = gnss[after - 1];
+      out[k]->stamp = t;
+    } else if (after < gnss.size() && gnss[after].stamp - t <= kSameStamp) {
+      out[k] = gnss[after];
+      out[k]->stamp = t;
     } else {
       out[k] = spline(gnss, after, t, params);
     }

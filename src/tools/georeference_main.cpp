@@ -111,7 +111,7 @@ Options parseOptions(int argc, char** argv) {
     } else if (f == "-q" || f == "--quiet") {
       o.quiet = true;
     } else {
-      throw UsageError("unknown option '" + f + "' (see --help)");
+      throw UsageError("unknown option '" + f + "'");
     }
   }
   const bool text = !o.gnss.empty() || !o.poses.empty();

@@ -109,7 +109,7 @@ Options parse(int argc, char** argv) {
     } else if (f == "--map-topic") {
       o.map_topic = true;
     } else {
-      throw UsageError("unknown option '" + f + "' (see --help)");
+      throw UsageError("unknown option '" + f + "'");
     }
   }
   return o;

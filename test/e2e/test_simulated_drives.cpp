@@ -1,0 +1,132 @@
+// Simulated drives with the defaults, judged against the simulator's ground truth.
+#include <gtest/gtest.h>
+
+#include "flexcloud/cloud_warp.h"
+#include "flexcloud/georeference.h"
+#include "flexcloud/sim/sim_cloud.h"
+
+namespace flexcloud {
+namespace {
+
+struct MapErrors {
+  ErrorStats rigid;
+  ErrorStats sheet;
+  ErrorStats trajectory;  // rubber-sheeted trajectory against the true one
+  GeoreferenceResult result;
+};
+
+MapErrors run(const sim::SimParams& sp, int control_points) {
+  const sim::SimDrive d = sim::simulateDrive(sp);
+  DriveInput in;
+  in.fixes = d.fixes;
+  in.poses = d.slam;
+  Params p;
+  p.control_points = control_points;
+  p.datum_lat = d.datum.lat;  // the truth is in the ENU frame of the simulator's datum
+  p.datum_lon = d.datum.lon;
+  p.datum_alt = d.datum.alt;
+  MapErrors e{{}, {}, {}, georeference(in, p)};
+  const auto& r = e.result;
+  pcl::PCLPointCloud2 map = sim::slamCloud(d.map);
+  const pcl::PCLPointCloud2 truth = sim::truthCloud(d.map);
+  e.rigid = compareClouds(map, truth, [&](const Eigen::Vector3d& x) {
+    return Eigen::Vector3d(r.T_enu_map * x);
+  });
+  const WarpStats w = warpCloud(map, *r.sheet, 2);
+  EXPECT_EQ(w.points, sp.map_points);
+  e.sheet = compareClouds(map, truth, [](const Eigen::Vector3d& x) { return x; });
+  std::vector<double> dev;
+  for (std::size_t i = 0; i < d.truth.size(); ++i) {
+    dev.push_back((r.rubbersheet[i].position - d.truth[i].position).norm());
+  }
+  e.trajectory = errorStats(dev);
+  return e;
+}
+
+TEST(SimulatedDrive, LoopClosedLoopMapWithin25cmOfTheTruth) {
+  for (std::uint64_t seed : {1, 2, 3}) {
+    sim::SimParams sp;
+    sp.seed = seed;
+    sp.map_points = 100000;
+    const MapErrors e = run(sp, 200);
+    RecordProperty("loop_seed" + std::to_string(seed) + "_map_rmse", std::to_string(e.sheet.rmse));
+    EXPECT_EQ(e.result.control_points.points.size(), 200u);
+    EXPECT_LE(e.sheet.rmse, 0.25) << "seed " << seed;
+    EXPECT_LT(e.sheet.rmse, e.rigid.rmse) << "seed " << seed;
+    EXPECT_LT(e.trajectory.rmse, 0.06) << "seed " << seed;
+    EXPECT_GT(e.rigid.rmse, 1.0) << "the simulated drift should matter, seed " << seed;
+    std::printf("loop seed %lu: map RMSE rigid %.3f -> rubber sheet %.3f m (max %.3f), trajectory %.3f m\n",
+                static_cast<unsigned long>(seed), e.rigid.rmse, e.sheet.rmse, e.sheet.max,
+                e.trajectory.rmse);
+  }
+}
+
+TEST(SimulatedDrive, OpenRouteMapWithin1_5mOfTheTruth) {
+  for (std::uint64_t seed : {1, 2, 3}) {
+    sim::SimParams sp;
+    sp.seed = seed;
+    sp.loop = false;
+    sp.map_points = 100000;
+    const MapErrors e = run(sp, 200);
+    EXPECT_LE(e.sheet.rmse, 1.5) << "seed " << seed;
+    EXPECT_LT(e.sheet.rmse, e.rigid.rmse) << "seed " << seed;
+    EXPECT_LT(e.trajectory.rmse, 0.1) << "seed " << seed;
+    std::printf("open seed %lu: map RMSE rigid %.3f -> rubber sheet %.3f m (max %.3f), trajectory %.3f m\n",
+                static_cast<unsigned long>(seed), e.rigid.rmse, e.sheet.rmse, e.sheet.max,
+                e.trajectory.rmse);
+  }
+}
+
+TEST(SimulatedDrive, OutagesNoFixStopsAndClockOffsetAreHandled) {
+  sim::SimParams sp;
+  sp.map_points = 50000;
+  sp.outages = {{60.0, 90.0}};
+  sp.no_fix = {{200.0, 215.0}};
+  sp.stop_duration = 60.0;
+  sp.clock_offset = 0.3;
+  const sim::SimDrive d = sim::simulateDrive(sp);
+  DriveInput in;
+  in.fixes = d.fixes;
+  in.poses = d.slam;
+  Params p;
+  p.gnss_time_offset = -0.3;
+  const GeoreferenceResult r = georeference(in, p);
+  EXPECT_EQ(r.gnss.dropped.no_fix, 76u);  // 15 s at 5 Hz, both ends included
+  for (const auto& cp : r.control_points.points) {
+    EXPECT_LE(cp.std_dev, p.stddev_threshold);
+    const double t = cp.stamp - sp.start_stamp;
+    EXPECT_FALSE(t > 60.5 && t < 89.5) << "control point inside the outage at " << t;
+  }
+  // Control points stay spread along the path: none closer than a fifth of the even spacing
+  // to its neighbour along the trajectory, despite a minute of standstill.
+  int at_stop = 0;
+  const double t_stop = 0.5 * sp.length / sp.speed;
+  for (const auto& cp : r.control_points.points) {
+    const double t = cp.stamp - sp.start_stamp;
+    at_stop += (t > t_stop + 0.5 && t < t_stop + sp.stop_duration - 0.5) ? 1 : 0;
+  }
+  EXPECT_LE(at_stop, 1);
+  // Against the truth (the GNSS itself is off by metres in the outage, whose 360 m of path get no
+  // control point and keep the drift that builds up over them):
+  auto truthError = [&](const GeoreferenceResult& res) {
+    std::vector<double> dev;
+    const EnuFrame sim_enu(d.datum);
+    const EnuFrame res_enu(*res.datum);
+    for (std::size_t i = 0; i < d.truth.size(); ++i) {
+      const Datum g = sim_enu.toGeodetic(d.truth[i].position);
+      dev.push_back((res.rubbersheet[i].position - res_enu.toEnu(g.lat, g.lon, g.alt)).norm());
+    }
+    return errorStats(dev);
+  };
+  const ErrorStats good = truthError(r);
+  EXPECT_LT(good.rmse, 0.15);
+  EXPECT_LT(good.max, 0.5);
+  // Without the clock offset correction the same drive is visibly worse.
+  const ErrorStats skewed = truthError(georeference(in, Params{}));
+  EXPECT_GT(skewed.rmse, 2.0 * good.rmse);
+  std::printf("outage/stop/offset drive: trajectory vs truth RMSE %.3f m (max %.3f), %.3f m "
+              "without the offset\n", good.rmse, good.max, skewed.rmse);
+}
+
+}  // namespace
+}  // namespace flexcloud

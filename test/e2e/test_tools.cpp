@@ -1,0 +1,162 @@
+// The command-line tools, run as a user runs them: simulate_drive, then georeference on the bag
+// and on text files, with good and bad input.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "flexcloud/cloud_warp.h"
+#include "flexcloud/io/pcd_io.h"
+
+namespace flexcloud {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Result {
+  int code;
+  std::string output;
+};
+
+Result sh(const std::string& cmd) {
+  Result r{-1, ""};
+  FILE* p = ::popen((cmd + " 2>&1").c_str(), "r");
+  if (p == nullptr) return r;
+  char buf[4096];
+  while (std::fgets(buf, sizeof(buf), p) != nullptr) r.output += buf;
+  const int status = ::pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+std::string bin(const std::string& name) { return std::string(FLEXCLOUD_BIN_DIR) + "/" + name; }
+
+nlohmann::json readJson(const std::string& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+class Tools : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = fs::temp_directory_path() / ("flexcloud_tools_" + std::to_string(::getpid()));
+    fs::create_directories(dir_);
+    const Result r = sh(bin("simulate_drive") + " --out " + sim() + " --map-points 50000 --seed 4");
+    ASSERT_EQ(r.code, 0) << r.output;
+  }
+  static void TearDownTestSuite() { fs::remove_all(dir_); }
+  static std::string sim() { return (dir_ / "sim").string(); }
+  static std::string out(const std::string& name) { return (dir_ / name).string(); }
+  static std::string datum() { return " --datum 48.2620 11.6670 480.0"; }  // the simulator's
+  static fs::path dir_;
+};
+fs::path Tools::dir_;
+
+TEST_F(Tools, BagWithMapGivesEveryOutputAndAccurateMap) {
+  const std::string o = out("bag");
+  const Result r = sh(bin("georeference") + " --bag " + sim() + "/drive.bag --map " + sim() +
+                   "/map.pcd --truth " + sim() + "/truth_map.pcd --out " + o + datum());
+  ASSERT_EQ(r.code, 0) << r.output;
+  for (const char* f : {"map_georeferenced.pcd", "trajectory_gnss.txt", "trajectory_slam.txt",
+                        "trajectory_aligned.txt", "trajectory_rubbersheet.txt",
+                        "control_points.txt", "origin.yaml", "report.json"}) {
+    EXPECT_TRUE(fs::exists(o + "/" + f)) << f;
+  }
+  for (const auto& e : fs::directory_iterator(o)) {
+    EXPECT_EQ(e.path().filename().string().find(".flexcloud-staging"), std::string::npos);
+  }
+  const auto j = readJson(o + "/report.json");
+  EXPECT_EQ(j["counts"]["map_points"], 50000);
+  EXPECT_EQ(j["counts"]["control_points"], 200);
+  EXPECT_EQ(j["counts"]["points_outside"], 0);
+  EXPECT_EQ(j["counts"]["poses"], j["counts"]["poses_matched"]);
+  EXPECT_DOUBLE_EQ(j["datum"]["lat"].get<double>(), 48.262);
+  EXPECT_LE(j["map_vs_truth"]["rubbersheet"]["rmse"].get<double>(), 0.25);
+  EXPECT_GT(j["map_vs_truth"]["aligned"]["rmse"].get<double>(), 1.0);
+  EXPECT_LT(j["metrics"]["rubbersheet"]["mae"].get<double>(), 0.1);
+  EXPECT_EQ(j["T_enu_map"].size(), 4u);
+  const pcl::PCLPointCloud2 in = readPcd(sim() + "/map.pcd");
+  const pcl::PCLPointCloud2 warped = readPcd(o + "/map_georeferenced.pcd");
+  EXPECT_EQ(warped.width * warped.height, 50000u);
+  ASSERT_EQ(warped.fields.size(), in.fields.size());
+  for (std::size_t i = 0; i < in.fields.size(); ++i) {
+    EXPECT_EQ(warped.fields[i].name, in.fields[i].name);
+    EXPECT_EQ(warped.fields[i].datatype, in.fields[i].datatype);
+  }
+  EXPECT_NE(r.output.find("map vs truth"), std::string::npos);
+}
+
+TEST_F(Tools, TextFilesGiveTheSameGeoreferencing) {
+  const std::string a = out("text"), b = out("bag2");
+  ASSERT_EQ(sh(bin("georeference") + " --gnss " + sim() + "/gnss.txt --poses " + sim() +
+               "/slam_trajectory.txt -q --out " + a + datum()).code, 0);
+  ASSERT_EQ(sh(bin("georeference") + " --bag " + sim() + "/drive.bag -q --out " + b + datum()).code, 0);
+  const auto ja = readJson(a + "/report.json"), jb = readJson(b + "/report.json");
+  // The text file rounds the fixes to 1e-10 deg (1 cm) and 0.1 mm: results agree to that.
+  EXPECT_NEAR(ja["metrics"]["rubbersheet"]["mae"].get<double>(),
+              jb["metrics"]["rubbersheet"]["mae"].get<double>(), 0.01);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(ja["T_enu_map"][i][3].get<double>(), jb["T_enu_map"][i][3].get<double>(), 0.01);
+  }
+  EXPECT_FALSE(fs::exists(a + "/map_georeferenced.pcd"));  // no map given, none written
+}
+
+TEST_F(Tools, ConfigFileAndFlagsSetTheParameters) {
+  const std::string cfg = out("cfg.yaml");
+  std::ofstream(cfg) << "control_points: 50\nstddev_threshold: 0.2\n";
+  const std::string o = out("cfg");
+  ASSERT_EQ(sh(bin("georeference") + " --bag " + sim() + "/drive.bag -q --config " + cfg +
+               " --out " + o).code, 0);
+  EXPECT_EQ(readJson(o + "/report.json")["counts"]["control_points"], 50);
+  EXPECT_DOUBLE_EQ(readJson(o + "/report.json")["params"]["stddev_threshold"].get<double>(), 0.2);
+  ASSERT_EQ(sh(bin("georeference") + " --bag " + sim() + "/drive.bag -q --config " + cfg +
+               " --control-points 30 --out " + o).code, 0);  // the flag wins over the file
+  EXPECT_EQ(readJson(o + "/report.json")["counts"]["control_points"], 30);
+}
+
+TEST_F(Tools, BadInputIsAOneLineErrorAndKeepsPreviousOutputs) {
+  const std::string o = out("keep");
+  fs::create_directories(o);
+  std::ofstream(o + "/report.json") << "{\"previous\": true}\n";
+  struct Case {
+    std::string args;
+    int code;
+    std::string says;
+  };
+  const std::vector<Case> cases = {
+      {"--bag /nonexistent.bag", 1, "/nonexistent.bag"},
+      {"--bag " + sim() + "/drive.bag --fix-topic /gps", 1, "topic /gps is not in the bag"},
+      {"--bag " + sim() + "/drive.bag --fix-topic /odom", 1, "holds nav_msgs/Odometry"},
+      {"--bag " + sim() + "/map.pcd", 1, "not a readable bag"},
+      {"--bag " + sim() + "/drive.bag --map " + sim() + "/gnss.txt", 1, "not a PCD file"},
+      {"--bag " + sim() + "/drive.bag --control-points 2", 1, "control_points 2 is not in"},
+      {"--bag " + sim() + "/drive.bag --set no_such=1", 1, "unknown parameter 'no_such'"},
+      {"--gnss " + sim() + "/gnss.txt --poses " + sim() + "/gnss.txt", 1, "gnss.txt:2: expected"},
+      {"--gnss " + sim() + "/gnss.txt", 2, "--poses"},
+      {"--bogus", 2, "unknown option '--bogus'"},
+  };
+  for (const auto& c : cases) {
+    const Result r = sh(bin("georeference") + " -q --out " + o + " " + c.args);
+    EXPECT_EQ(r.code, c.code) << c.args << "\n" << r.output;
+    EXPECT_NE(r.output.find(c.says), std::string::npos) << c.args << "\n" << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  }
+  EXPECT_EQ(readJson(o + "/report.json")["previous"], true);
+  std::size_t files = 0;
+  for (const auto& e : fs::directory_iterator(o)) files += e.is_regular_file() ? 1 : 0;
+  EXPECT_EQ(files, 1u);
+  for (const auto& e : fs::directory_iterator(o)) EXPECT_FALSE(e.is_directory()) << e.path();
+}
+
+TEST_F(Tools, SimulatorRejectsBadSettings) {
+  const Result r = sh(bin("simulate_drive") + " --out " + out("badsim") + " --length -5");
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.output.find("length must be in"), std::string::npos) << r.output;
+  EXPECT_EQ(sh(bin("simulate_drive") + " --speed fast").code, 2);
+}
+
+}  // namespace
+}  // namespace flexcloud

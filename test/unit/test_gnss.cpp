@@ -1,0 +1,91 @@
+#include <gtest/gtest.h>
+
+#include "flexcloud/gnss.h"
+
+namespace flexcloud {
+namespace {
+
+RawFix fix(double t, double lat, double lon, double std_dev = 0.02, bool ok = true) {
+  RawFix f;
+  f.has_fix = ok;
+  f.fix.stamp = t;
+  f.fix.lat = lat;
+  f.fix.lon = lon;
+  f.fix.alt = 100.0;
+  f.fix.std_enu.setConstant(std_dev);
+  return f;
+}
+
+/// 10 m/s north from (48, 11): 1e-4 deg of latitude is ~11.1 m.
+std::vector<RawFix> drive() {
+  std::vector<RawFix> v;
+  for (int k = 0; k < 20; ++k) v.push_back(fix(100.0 + k, 48.0 + 0.9e-4 * k, 11.0));
+  return v;
+}
+
+TEST(Gnss, DatumIsTheEarliestValidFix) {
+  auto v = drive();
+  std::swap(v[0], v[5]);               // out of order
+  v.insert(v.begin(), fix(99.0, 0, 0, 0.02, false));  // NO_FIX earlier than all
+  const PreparedGnss g = prepareGeodeticGnss(v, Params{});
+  ASSERT_TRUE(g.datum);
+  EXPECT_DOUBLE_EQ(g.datum->lat, 48.0);
+  EXPECT_NEAR(g.points.front().position.norm(), 0.0, 1e-9);
+  EXPECT_NEAR(g.points[1].position.y(), 10.0, 0.05);
+  EXPECT_EQ(g.dropped.no_fix, 1u);
+  for (std::size_t i = 1; i < g.points.size(); ++i) {
+    EXPECT_LT(g.points[i - 1].stamp, g.points[i].stamp);
+  }
+}
+
+TEST(Gnss, EveryDroppedFixIsCountedByReason) {
+  auto v = drive();
+  v.push_back(fix(120.0, std::nan(""), 11.0));                 // invalid
+  v.push_back(fix(121.0, 48.01, std::numeric_limits<double>::infinity()));
+  v.push_back(fix(122.0, 48.0, 11.0, std::nan("")));           // unknown covariance
+  v.push_back(fix(105.0, 48.0005, 11.0));                      // duplicate stamp
+  v[10].fix.lat += 0.01;                                       // a 1.1 km jump for one fix
+  v.push_back(fix(123.0, 48.0, 11.0, -1.0));                   // negative std: invalid
+  const PreparedGnss g = prepareGeodeticGnss(v, Params{});
+  EXPECT_EQ(g.received, 25u);
+  EXPECT_EQ(g.dropped.invalid, 3u);
+  EXPECT_EQ(g.dropped.unknown_covariance, 1u);
+  EXPECT_EQ(g.dropped.duplicate, 1u);
+  EXPECT_EQ(g.dropped.outlier, 1u);
+  EXPECT_EQ(g.points.size() + g.dropped.total(), g.received);
+}
+
+TEST(Gnss, DefaultStdDevKeepsFixesWithUnknownCovariance) {
+  auto v = drive();
+  for (auto& f : v) f.fix.std_enu.setConstant(std::nan(""));
+  Params p;
+  p.default_std_dev = 0.5;
+  const PreparedGnss g = prepareGeodeticGnss(v, p);
+  EXPECT_EQ(g.points.size(), v.size());
+  EXPECT_DOUBLE_EQ(g.points[0].std_dev.x(), 0.5);
+  EXPECT_THROW(prepareGeodeticGnss(v, Params{}), Error);  // all dropped: a clear error
+}
+
+TEST(Gnss, GivenDatumAndTimeOffset) {
+  Params p;
+  p.datum_lat = 48.0;
+  p.datum_lon = 11.0;
+  p.datum_alt = 0.0;
+  p.gnss_time_offset = -0.25;
+  const PreparedGnss g = prepareGeodeticGnss(drive(), p);
+  EXPECT_NEAR(g.points[0].position.z(), 100.0, 1e-6);
+  EXPECT_DOUBLE_EQ(g.points[0].stamp, 99.75);
+}
+
+TEST(Gnss, NoFixAtAllIsAnErrorThatSaysWhy) {
+  std::vector<RawFix> v{fix(1, 0, 0, 0.02, false), fix(2, 0, 0, 0.02, false)};
+  try {
+    prepareGeodeticGnss(v, Params{});
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no fix 2"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace flexcloud

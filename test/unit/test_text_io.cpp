@@ -1,0 +1,64 @@
+#include <gtest/gtest.h>
+
+#include "flexcloud/io/text_io.h"
+
+namespace flexcloud {
+namespace {
+
+TEST(TextIo, TumWithNanosecondStampsIsDetected) {
+  const auto t = parseTum(
+      "# comment\n1746076987991696384 22.0888 -0.05374 -0.837024 0.04964 0.004098 -0.018225 "
+      "0.998592\n\n1746076988391703296 24.5816 -0.1 -0.8 0 0 0 1\n",
+      "poses.txt", StampUnit::kAuto);
+  ASSERT_EQ(t.size(), 2u);
+  EXPECT_NEAR(t[0].stamp, 1746076987.991696384, 1e-6);
+  EXPECT_NEAR(t[1].stamp - t[0].stamp, 0.400006912, 1e-6);
+  EXPECT_DOUBLE_EQ(t[0].position.x(), 22.0888);
+  EXPECT_DOUBLE_EQ(t[0].orientation.w(), 0.998592);
+}
+
+TEST(TextIo, SecondsStayAndCommasAreSeparators) {
+  const auto t = parseTum("12.5,1,2,3,0,0,0,1\n13,1,2,3,0,0,0,1\n", "p.csv", StampUnit::kAuto);
+  EXPECT_DOUBLE_EQ(t[0].stamp, 12.5);
+  EXPECT_DOUBLE_EQ(t[1].stamp, 13.0);
+  const auto ns = parseTum("1000 1 2 3 0 0 0 1\n", "p", StampUnit::kNanoseconds);
+  EXPECT_DOUBLE_EQ(ns[0].stamp, 1e-6);
+}
+
+TEST(TextIo, ErrorsNameTheFileAndLine) {
+  try {
+    parseTum("1 2 3 4 0 0 0 1\n2 3 4 5 6\n", "poses.txt", StampUnit::kAuto);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "poses.txt:2: expected stamp x y z qx qy qz qw (8 columns), found 5");
+  }
+  try {
+    parseLocalGnss("1 2 3 4 0 0 0\n1.5 2 three 4\n", "gnss.txt", StampUnit::kAuto);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), "gnss.txt:2: 'three' is not a number");
+  }
+  EXPECT_THROW(readTumFile("/nonexistent/poses.txt"), Error);
+}
+
+TEST(TextIo, GnssWithoutStdDevHasUnknownCovariance) {
+  const auto g = parseGeodeticGnss("10 48.1 11.2 500\n11 48.1 11.2 500 0.1 0.2 0.3\n", "g",
+                                   StampUnit::kAuto);
+  EXPECT_TRUE(g[0].fix.std_enu.hasNaN());
+  EXPECT_DOUBLE_EQ(g[1].fix.std_enu.z(), 0.3);
+}
+
+TEST(TextIo, TumRoundTrip) {
+  Trajectory t(1);
+  t[0].stamp = 1700000000.123456789;
+  t[0].position = Eigen::Vector3d(1234.5678901, -2.25, 0.5);
+  t[0].orientation = Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()));
+  const auto back = parseTum(formatTum(t), "x", StampUnit::kSeconds);
+  EXPECT_NEAR(back[0].stamp, t[0].stamp, 1e-6);
+  EXPECT_LT((back[0].position - t[0].position).norm(), 1e-6);
+  EXPECT_NEAR(back[0].orientation.angularDistance(t[0].orientation), 0.0, 1e-8);
+}
+
+}  // namespace
+}  // namespace flexcloud
