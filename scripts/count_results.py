@@ -9,27 +9,48 @@ import sys
 import xml.etree.ElementTree as ET
 
 
+def cases(path):
+    """(name, outcome) of every test case in a JUnit file; outcome: passed/failed/skipped."""
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError as e:
+        return [(f"unreadable result file ({e})", "failed")]
+    out = []
+    for case in root.iter("testcase"):
+        name = f"{case.get('classname', '')}.{case.get('name', '')}".strip(".")
+        if case.find("failure") is not None or case.find("error") is not None:
+            out.append((name, "failed"))
+        elif case.find("skipped") is not None or case.get("result") == "skipped":
+            out.append((name, "skipped"))
+        else:
+            out.append((name, "passed"))
+    return out
+
+
 def main(folder):
     passed, failed, skipped = [], [], []
+    buckets = {"passed": passed, "failed": failed, "skipped": skipped}
     files = sorted(pathlib.Path(folder).rglob("*.xml"))
     for path in files:
-        # rostest writes a summary file plus the test node's own file; count the node's cases
-        # once, from the summary (rostest-*.xml), which also records a node that never ran.
         if path.name.startswith("rosunit-"):
-            continue
-        try:
-            root = ET.parse(path).getroot()
-        except ET.ParseError as e:
-            failed.append(f"{path.name}: unreadable result file ({e})")
-            continue
-        for case in root.iter("testcase"):
-            name = f"{case.get('classname', '')}.{case.get('name', '')}".strip(".")
-            if case.find("failure") is not None or case.find("error") is not None:
-                failed.append(f"{path.name}: {name}")
-            elif case.find("skipped") is not None or case.get("result") == "skipped":
-                skipped.append(f"{path.name}: {name}")
-            else:
-                passed.append(name)
+            continue  # counted through their rostest summary below
+        results = cases(path)
+        if path.name.startswith("rostest-"):
+            # A rostest summary has one case per test node ("test<name>"); the node's own cases
+            # are in rosunit-<name>.xml. Count those, and the summary only if the node failed
+            # without them (it crashed, hung or never started).
+            expanded = []
+            for name, outcome in results:
+                node = name.rsplit(".", 1)[-1]
+                node = node[4:] if node.startswith("test") else node
+                unit = path.parent / f"rosunit-{node}.xml"
+                inner = cases(unit) if unit.exists() else []
+                expanded += [(f"{node}/{n}", o) for n, o in inner]
+                if outcome != "passed" and not any(o == "failed" for _, o in inner):
+                    expanded.append((name, outcome))
+            results = expanded
+        for name, outcome in results:
+            buckets[outcome].append(f"{path.name}: {name}" if outcome != "passed" else name)
     for s in skipped:
         print(f"SKIPPED {s}")
     for f in failed:

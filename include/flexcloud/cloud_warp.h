@@ -20,7 +20,9 @@ struct XyzLayout {
   std::size_t points = 0;
 
   /// Reads the layout; throws Error naming `name` when x/y/z are missing, not FLOAT32/FLOAT64,
-  /// outside the point, or the data size does not match width * height * point_step.
+  /// outside the point, or the data size does not match points * point_step.
+  static XyzLayout of(const std::vector<pcl::PCLPointField>& fields, std::size_t point_step,
+                      std::size_t points, std::size_t data_size, const std::string& name);
   static XyzLayout of(const pcl::PCLPointCloud2& cloud, const std::string& name);
   Eigen::Vector3d get(const std::uint8_t* point) const;
   void set(std::uint8_t* point, const Eigen::Vector3d& p) const;
@@ -39,6 +41,9 @@ extern std::atomic<bool> g_cancel;
 /// (0: all cores). Throws Error("... cancelled") if g_cancel is raised meanwhile.
 WarpStats warpCloud(pcl::PCLPointCloud2& cloud, const RubberSheet& sheet, int threads,
                     const std::string& name = "map");
+/// The same on a raw point buffer of the given layout.
+WarpStats warpPoints(std::uint8_t* data, const XyzLayout& layout, const RubberSheet& sheet,
+                     int threads, const std::string& name = "map");
 
 /// Deviation of the cloud's points, mapped by `f`, from the same points of `truth` (same count,
 /// same order; NaN points skipped).

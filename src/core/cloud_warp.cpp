@@ -10,18 +10,24 @@ namespace flexcloud {
 std::atomic<bool> g_cancel{false};
 
 XyzLayout XyzLayout::of(const pcl::PCLPointCloud2& cloud, const std::string& name) {
+  return of(cloud.fields, cloud.point_step, static_cast<std::size_t>(cloud.width) * cloud.height,
+            cloud.data.size(), name);
+}
+
+XyzLayout XyzLayout::of(const std::vector<pcl::PCLPointField>& fields, std::size_t point_step,
+                        std::size_t points, std::size_t data_size, const std::string& name) {
   XyzLayout l;
-  l.point_step = cloud.point_step;
-  l.points = static_cast<std::size_t>(cloud.width) * cloud.height;
-  if (cloud.data.size() != l.points * l.point_step) {
-    throw Error(name + ": data holds " + std::to_string(cloud.data.size()) + " bytes, but " +
+  l.point_step = point_step;
+  l.points = points;
+  if (data_size != l.points * l.point_step) {
+    throw Error(name + ": data holds " + std::to_string(data_size) + " bytes, but " +
                 std::to_string(l.points) + " points of " + std::to_string(l.point_step) +
                 " bytes need " + std::to_string(l.points * l.point_step));
   }
   const char* axes[3] = {"x", "y", "z"};
   for (int a = 0; a < 3; ++a) {
     bool found = false;
-    for (const auto& f : cloud.fields) {
+    for (const auto& f : fields) {
       if (f.name != axes[a]) continue;
       found = true;
       if (f.datatype != pcl::PCLPointField::FLOAT32 && f.datatype != pcl::PCLPointField::FLOAT64) {
@@ -72,7 +78,11 @@ int resolveThreads(int requested) {
 
 WarpStats warpCloud(pcl::PCLPointCloud2& cloud, const RubberSheet& sheet, int threads,
                     const std::string& name) {
-  const XyzLayout layout = XyzLayout::of(cloud, name);
+  return warpPoints(cloud.data.data(), XyzLayout::of(cloud, name), sheet, threads, name);
+}
+
+WarpStats warpPoints(std::uint8_t* data, const XyzLayout& layout, const RubberSheet& sheet,
+                     int threads, const std::string& name) {
   const std::size_t n = layout.points;
   const int workers = std::max(1, std::min<int>(resolveThreads(threads),
                                                 static_cast<int>(n / 65536 + 1)));
@@ -82,7 +92,7 @@ WarpStats warpCloud(pcl::PCLPointCloud2& cloud, const RubberSheet& sheet, int th
     const std::size_t begin = n * static_cast<std::size_t>(w) / static_cast<std::size_t>(workers);
     const std::size_t end = n * static_cast<std::size_t>(w + 1) / static_cast<std::size_t>(workers);
     WarpStats& s = part[static_cast<std::size_t>(w)];
-    std::uint8_t* base = cloud.data.data();
+    std::uint8_t* base = data;
     for (std::size_t i = begin; i < end; ++i) {
       if ((i & 0xFFFF) == 0 && g_cancel.load(std::memory_order_relaxed)) {
         cancelled = true;

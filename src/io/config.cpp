@@ -10,10 +10,10 @@
 namespace flexcloud {
 
 const std::vector<std::string>& nodeOnlyKeys() {
+  // The fields of NodeParams (include/flexcloud/ros/node_params.h) beyond the core ones.
   static const std::vector<std::string> keys = {
-      "enu_frame",  "map_frame",   "odom_type",       "bag",           "bag_fix_topic",
-      "bag_odom_topic", "map_file", "publish_rate", "recompute_delay", "max_messages",
-      "auto_georeference_after_bag"};
+      "enu_frame",       "map_frame",    "odom_type",  "bag", "map_file", "georeference_on_bag_end",
+      "recompute_delay", "max_messages", "queue_size"};
   return keys;
 }
 

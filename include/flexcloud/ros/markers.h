@@ -1,0 +1,25 @@
+#pragma once
+// Markers for rviz: pure functions from a result to MarkerArrays. Each array starts with a
+// DELETEALL so a republished result replaces the previous one.
+
+#include <visualization_msgs/MarkerArray.h>
+
+#include "flexcloud/georeference.h"
+
+namespace flexcloud::markers {
+
+/// Control points at their GNSS position: spheres coloured by how far the rigid alignment left
+/// them (green 0 m to red >= 2 m), with that residual as text.
+visualization_msgs::MarkerArray controlPoints(const GeoreferenceResult& r, const std::string& frame,
+                                              const ros::Time& stamp);
+
+/// The tetrahedra edges in the ENU frame (after the rubber sheet).
+visualization_msgs::MarkerArray tetrahedra(const GeoreferenceResult& r, const std::string& frame,
+                                           const ros::Time& stamp);
+
+/// The rubber-sheeted trajectory coloured by its deviation from the GNSS (green 0 m to red at
+/// `red_at` metres; grey where the pose has no GNSS).
+visualization_msgs::MarkerArray deviation(const GeoreferenceResult& r, const std::string& frame,
+                                          const ros::Time& stamp, double red_at = 0.5);
+
+}  // namespace flexcloud::markers
