@@ -7,11 +7,15 @@
 
 #include <array>
 #include <memory>
+#include <mutex>
 #include <vector>
 
 #include "flexcloud/types.h"
 
 namespace flexcloud {
+
+struct LocatorTet;
+class TetLocator;
 
 using Affine34 = Eigen::Matrix<double, 3, 4>;
 
@@ -32,21 +36,26 @@ class RubberSheet {
   /// span no volume.
   RubberSheet(const std::vector<Eigen::Vector3d>& source,
               const std::vector<Eigen::Vector3d>& target, const Affine34& outside,
-              const Eigen::Isometry3d& input_to_source = Eigen::Isometry3d::Identity(),
-              bool with_grid = true);
+              const Eigen::Isometry3d& input_to_source = Eigen::Isometry3d::Identity());
   ~RubberSheet();
   RubberSheet(const RubberSheet&) = delete;
   RubberSheet& operator=(const RubberSheet&) = delete;
 
-  /// Fast location (grid start cell + walk; a walk from tetrahedron 0 without the grid);
-  /// thread-safe.
+  /// Builds the location grid on `threads` threads (0: all cores) unless it exists; locate()
+  /// builds it on first use otherwise. `sample`: input points like those to come, so the fine
+  /// cells go where they are. Thread-safe.
+  void prepare(int threads = 0, const std::vector<Eigen::Vector3d>* sample = nullptr) const;
+  /// Whether input point p lies in tetrahedron `tet` (within rounding): the check of a
+  /// neighbour's tetrahedron before a full location.
+  bool contains(int tet, const Eigen::Vector3d& p) const;
+  /// Fast location through the grid; thread-safe.
   Location locate(const Eigen::Vector3d& p) const;
   /// Location by a walk from `hint` (a tetrahedron index, e.g. the previous point's):
   /// fastest for points that follow each other closely, like a trajectory.
   Location locateFrom(const Eigen::Vector3d& p, int hint) const;
   /// The affine transform that applies at a location.
   const Affine34& affineAt(const Location& loc) const {
-    return loc.outside ? outside_ : tets_[static_cast<std::size_t>(loc.tet)].affine;
+    return loc.outside ? outside_ : affine_[static_cast<std::size_t>(loc.tet)];
   }
   /// The image of p (fast path).
   Eigen::Vector3d transform(const Eigen::Vector3d& p) const {
@@ -59,7 +68,7 @@ class RubberSheet {
     return a.leftCols<3>() * p + a.col(3);
   }
 
-  std::size_t numTetrahedra() const { return tets_.size(); }
+  std::size_t numTetrahedra() const { return affine_.size(); }
   /// Vertex indices (into sources()/targets()) of every tetrahedron; sources are in the
   /// source frame, targets in the target frame.
   const std::vector<std::array<int, 4>>& tetrahedra() const { return tet_vertices_; }
@@ -69,24 +78,14 @@ class RubberSheet {
   std::size_t merged() const { return merged_; }
   /// Tetrahedra too flat to carry their own transform; they use a neighbour's.
   std::size_t degenerate() const { return degenerate_; }
-  /// Grid cells per axis of the location accelerator.
-  Eigen::Vector3i gridSize() const { return grid_n_; }
+  /// Level-1 grid cells per axis of the location accelerator (after prepare()).
+  Eigen::Vector3i gridSize() const;
 
  private:
-  // All three members below are in the input frame.
-  struct Tet {
-    Eigen::Matrix3d bary;  ///< inverse of [v1-v0 v2-v0 v3-v0]: barycentric coordinates
-    Eigen::Vector3d v0;
-    Affine34 affine;       ///< input frame -> target frame
-    std::array<int, 4> neighbour;  ///< across the face opposite vertex i; -1 beyond the hull
-  };
   struct Cgal;
 
-  Location walk(const Eigen::Vector3d& p, int start) const;
-  Location bruteForce(const Eigen::Vector3d& p) const;
   void buildTets(const Eigen::Isometry3d& input_to_source);
   void replaceDegenerate(const std::vector<bool>& flat);
-  void buildGrid(const Eigen::Isometry3d& input_to_source);
 
   std::vector<Eigen::Vector3d> source_;
   std::vector<Eigen::Vector3d> target_;
@@ -94,17 +93,13 @@ class RubberSheet {
   std::size_t merged_ = 0;
   std::size_t degenerate_ = 0;
   Eigen::Isometry3d input_to_source_ = Eigen::Isometry3d::Identity();
-  std::vector<Tet> tets_;
+  // Per tetrahedron, in the input frame: what the walk reads, and the transform applied.
+  std::vector<LocatorTet> geometry_;
+  std::vector<Affine34, Eigen::aligned_allocator<Affine34>> affine_;
   std::vector<std::array<int, 4>> tet_vertices_;
   std::unique_ptr<Cgal> cgal_;
-
-  // Location grid over the bounding box of the sources. cell_ >= 0: the whole cell lies in
-  // that tetrahedron; cell_ < 0: -(start + 1), a tetrahedron to walk from.
-  Eigen::Vector3d grid_lo_ = Eigen::Vector3d::Zero();
-  Eigen::Vector3d grid_hi_ = Eigen::Vector3d::Zero();
-  Eigen::Vector3d grid_scale_ = Eigen::Vector3d::Zero();
-  Eigen::Vector3i grid_n_ = Eigen::Vector3i::Zero();
-  std::vector<int> cell_;
+  std::unique_ptr<TetLocator> locator_;
+  mutable std::once_flag grid_once_;
 };
 
 }  // namespace flexcloud

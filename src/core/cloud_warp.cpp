@@ -81,33 +81,83 @@ WarpStats warpCloud(pcl::PCLPointCloud2& cloud, const RubberSheet& sheet, int th
   return warpPoints(cloud.data.data(), XyzLayout::of(cloud, name), sheet, threads, name);
 }
 
+namespace {
+
+constexpr std::size_t kSample = 1 << 18;  // points read to place the fine location cells
+
+/// Reads and writes x, y, z of one layout kind without a branch per axis and point.
+struct FloatXyz {
+  const XyzLayout& l;
+  Eigen::Vector3d get(const std::uint8_t* pt) const {
+    float v[3];
+    for (int a = 0; a < 3; ++a) std::memcpy(&v[a], pt + l.offset[a], sizeof(float));
+    return {v[0], v[1], v[2]};
+  }
+  void set(std::uint8_t* pt, const Eigen::Vector3d& p) const {
+    for (int a = 0; a < 3; ++a) {
+      const auto v = static_cast<float>(p(a));
+      std::memcpy(pt + l.offset[a], &v, sizeof(float));
+    }
+  }
+};
+struct AnyXyz {
+  const XyzLayout& l;
+  Eigen::Vector3d get(const std::uint8_t* pt) const { return l.get(pt); }
+  void set(std::uint8_t* pt, const Eigen::Vector3d& p) const { l.set(pt, p); }
+};
+
+template <typename Xyz>
+void warpRange(std::uint8_t* data, std::size_t begin, std::size_t end, std::size_t step,
+               const Xyz& xyz, const RubberSheet& sheet, WarpStats& s, std::atomic<bool>& stop) {
+  int last = -1;  // the previous point's tetrahedron: maps are stored scan by scan
+  for (std::size_t i = begin; i < end; ++i) {
+    if ((i & 0xFFFF) == 0 && g_cancel.load(std::memory_order_relaxed)) {
+      stop = true;
+      return;
+    }
+    std::uint8_t* pt = data + i * step;
+    const Eigen::Vector3d p = xyz.get(pt);
+    ++s.points;
+    if (!p.allFinite()) {
+      ++s.non_finite;
+      continue;
+    }
+    RubberSheet::Location loc{last, false};
+    if (last < 0 || !sheet.contains(last, p)) {
+      loc = sheet.locate(p);
+      if (loc.outside) {
+        ++s.outside;
+      } else {
+        last = loc.tet;
+      }
+    }
+    xyz.set(pt, RubberSheet::apply(sheet.affineAt(loc), p));
+  }
+}
+
+}  // namespace
+
 WarpStats warpPoints(std::uint8_t* data, const XyzLayout& layout, const RubberSheet& sheet,
                      int threads, const std::string& name) {
   const std::size_t n = layout.points;
+  std::vector<Eigen::Vector3d> sample;
+  const std::size_t stride = std::max<std::size_t>(1, n / kSample);
+  sample.reserve(n / stride + 1);
+  for (std::size_t i = 0; i < n; i += stride) sample.push_back(layout.get(data + i * layout.point_step));
+  sheet.prepare(threads, &sample);
   const int workers = std::max(1, std::min<int>(resolveThreads(threads),
                                                 static_cast<int>(n / 65536 + 1)));
+  const bool all_float = !layout.is_double[0] && !layout.is_double[1] && !layout.is_double[2];
   std::vector<WarpStats> part(static_cast<std::size_t>(workers));
   std::atomic<bool> cancelled{false};
   auto work = [&](int w) {
     const std::size_t begin = n * static_cast<std::size_t>(w) / static_cast<std::size_t>(workers);
     const std::size_t end = n * static_cast<std::size_t>(w + 1) / static_cast<std::size_t>(workers);
     WarpStats& s = part[static_cast<std::size_t>(w)];
-    std::uint8_t* base = data;
-    for (std::size_t i = begin; i < end; ++i) {
-      if ((i & 0xFFFF) == 0 && g_cancel.load(std::memory_order_relaxed)) {
-        cancelled = true;
-        return;
-      }
-      std::uint8_t* pt = base + i * layout.point_step;
-      const Eigen::Vector3d p = layout.get(pt);
-      ++s.points;
-      if (!p.allFinite()) {
-        ++s.non_finite;
-        continue;
-      }
-      const auto loc = sheet.locate(p);
-      if (loc.outside) ++s.outside;
-      layout.set(pt, RubberSheet::apply(sheet.affineAt(loc), p));
+    if (all_float) {
+      warpRange(data, begin, end, layout.point_step, FloatXyz{layout}, sheet, s, cancelled);
+    } else {
+      warpRange(data, begin, end, layout.point_step, AnyXyz{layout}, sheet, s, cancelled);
     }
   };
   std::vector<std::thread> pool;

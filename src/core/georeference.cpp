@@ -88,7 +88,7 @@ std::array<Eigen::Vector3d, 8> makeCuboid(const GeoreferenceResult& r, const Par
   return corners;
 }
 
-std::shared_ptr<const RubberSheet> buildSheet(const GeoreferenceResult& r, bool with_grid) {
+std::shared_ptr<const RubberSheet> buildSheet(const GeoreferenceResult& r) {
   // The triangulation lives in the aligned frame, where the cuboid is axis-aligned.
   std::vector<Eigen::Vector3d> src;
   std::vector<Eigen::Vector3d> dst;
@@ -105,7 +105,7 @@ std::shared_ptr<const RubberSheet> buildSheet(const GeoreferenceResult& r, bool 
   }
   Affine34 outside;
   outside << r.T_enu_map.linear(), r.T_enu_map.translation();
-  return std::make_shared<RubberSheet>(src, dst, outside, r.T_enu_map, with_grid);
+  return std::make_shared<RubberSheet>(src, dst, outside, r.T_enu_map);
 }
 
 /// Error-driven refinement up to `total` control points (see Params::refine_fraction).
@@ -124,7 +124,7 @@ void refineControlPoints(GeoreferenceResult& r, const Params& params, std::size_
   const double separation =
       0.05 * (arc[last] - arc[first]) / static_cast<double>(std::max<std::size_t>(1, total - 1));
   while (r.control_points.points.size() < total) {
-    const auto sheet = buildSheet(r, false);
+    const auto sheet = buildSheet(r);
     std::vector<double> deviation(r.poses.size(), kNaN);
     int hint = 0;
     for (std::size_t i = 0; i < r.poses.size(); ++i) {
@@ -144,8 +144,12 @@ void refineControlPoints(GeoreferenceResult& r, const Params& params, std::size_
   }
 }
 
-Pose warpPose(const RubberSheet& sheet, const Pose& p) {
-  const Affine34& a = sheet.affineAt(sheet.locate(p.position));
+/// Warps a pose; `hint` carries the tetrahedron of the previous pose (a trajectory moves
+/// little from pose to pose, so the walk from there is short and no grid is needed).
+Pose warpPose(const RubberSheet& sheet, const Pose& p, int& hint) {
+  const auto loc = sheet.locateFrom(p.position, hint);
+  if (!loc.outside) hint = loc.tet;
+  const Affine34& a = sheet.affineAt(loc);
   Pose out = p;
   out.position = RubberSheet::apply(a, p.position);
   out.orientation = Eigen::Quaterniond(nearestRotation(a.leftCols<3>()) *
@@ -217,11 +221,12 @@ GeoreferenceResult georeference(const DriveInput& input, const Params& params) {
   refineControlPoints(r, params, total);
   r.seconds.control_points = watch.lap();
 
-  r.sheet = buildSheet(r, true);
+  r.sheet = buildSheet(r);
   r.seconds.triangulation = watch.lap();
 
   r.rubbersheet.reserve(r.poses.size());
-  for (const auto& p : r.poses) r.rubbersheet.push_back(warpPose(*r.sheet, p));
+  int hint = 0;
+  for (const auto& p : r.poses) r.rubbersheet.push_back(warpPose(*r.sheet, p, hint));
   std::vector<double> dev_aligned;
   std::vector<double> dev_sheet;
   for (std::size_t i = 0; i < r.poses.size(); ++i) {

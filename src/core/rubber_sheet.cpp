@@ -10,7 +10,10 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <thread>
 #include <unordered_map>
+
+#include "tet_locator.h"
 
 namespace flexcloud {
 
@@ -28,11 +31,7 @@ struct RubberSheet::Cgal {
 namespace {
 
 constexpr double kMergeDistance = 1e-3;    // m: sources closer than this are one point
-constexpr double kInsideTolerance = -1e-12;  // barycentric slack for points on faces
 constexpr double kFlatQuality = 1e-9;  // |det(edges)| / longest^3 below this: a flat sliver
-constexpr std::size_t kCellsPerTet = 48;
-constexpr std::size_t kMinCells = 1 << 12;
-constexpr std::size_t kMaxCells = 1 << 22;
 
 /// Keeps the first of any sources within kMergeDistance of each other.
 std::vector<std::size_t> mergeNearDuplicates(const std::vector<Eigen::Vector3d>& pts) {
@@ -74,7 +73,7 @@ std::vector<std::size_t> mergeNearDuplicates(const std::vector<Eigen::Vector3d>&
 
 RubberSheet::RubberSheet(const std::vector<Eigen::Vector3d>& source,
                          const std::vector<Eigen::Vector3d>& target, const Affine34& outside,
-                         const Eigen::Isometry3d& input_to_source, bool with_grid)
+                         const Eigen::Isometry3d& input_to_source)
     : outside_(outside), input_to_source_(input_to_source), cgal_(std::make_unique<Cgal>()) {
   if (source.size() != target.size()) {
     throw Error("rubber sheet: " + std::to_string(source.size()) + " source points but " +
@@ -102,21 +101,31 @@ RubberSheet::RubberSheet(const std::vector<Eigen::Vector3d>& source,
                 " control points span no volume (degenerate triangulation)");
   }
   buildTets(input_to_source);
-  if (with_grid) buildGrid(input_to_source);
+  // The locator's box: every source, in the input frame.
+  const Eigen::Isometry3d source_to_input = input_to_source.inverse();
+  Eigen::Vector3d lo = source_to_input * source_.front();
+  Eigen::Vector3d hi = lo;
+  for (const auto& src : source_) {
+    lo = lo.cwiseMin(source_to_input * src);
+    hi = hi.cwiseMax(source_to_input * src);
+  }
+  locator_ = std::make_unique<TetLocator>(geometry_, lo, hi);
 }
 
 void RubberSheet::buildTets(const Eigen::Isometry3d& input_to_source) {
   auto& dt = cgal_->dt;
   int next = 0;
   for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) c->info() = next++;
-  tets_.resize(static_cast<std::size_t>(next));
-  tet_vertices_.resize(tets_.size());
-  std::vector<bool> flat(tets_.size(), false);
+  geometry_.resize(static_cast<std::size_t>(next));
+  affine_.resize(geometry_.size());
+  tet_vertices_.resize(geometry_.size());
+  std::vector<bool> flat(geometry_.size(), false);
   const Eigen::Matrix3d rot = input_to_source.linear();
   const Eigen::Isometry3d source_to_input = input_to_source.inverse();
   for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
     const auto t = static_cast<std::size_t>(c->info());
-    Tet& tet = tets_[t];
+    LocatorTet& tet = geometry_[t];
+    Affine34& affine = affine_[t];
     std::array<int, 4>& v = tet_vertices_[t];
     for (int i = 0; i < 4; ++i) {
       v[i] = c->vertex(i)->info();
@@ -142,8 +151,8 @@ void RubberSheet::buildTets(const Eigen::Isometry3d& input_to_source) {
     // Fold the input -> source transform in: input point q lies at input_to_source * q.
     tet.bary = bary * rot;
     tet.v0 = source_to_input * s[v[0]];
-    tet.affine.leftCols<3>() = linear * rot;
-    tet.affine.col(3) = linear * (input_to_source.translation() - s[v[0]]) + d[v[0]];
+    affine.leftCols<3>() = linear * rot;
+    affine.col(3) = linear * (input_to_source.translation() - s[v[0]]) + d[v[0]];
   }
   replaceDegenerate(flat);
 }
@@ -151,19 +160,19 @@ void RubberSheet::buildTets(const Eigen::Isometry3d& input_to_source) {
 void RubberSheet::replaceDegenerate(const std::vector<bool>& flat) {
   // A nearly flat tetrahedron has no reliable transform of its own; it holds almost no volume,
   // so it borrows the transform of the nearest solid tetrahedron across its faces.
-  for (std::size_t t = 0; t < tets_.size(); ++t) {
+  for (std::size_t t = 0; t < geometry_.size(); ++t) {
     if (!flat[t]) continue;
     ++degenerate_;
     std::vector<int> queue{static_cast<int>(t)};
-    std::vector<bool> seen(tets_.size(), false);
+    std::vector<bool> seen(geometry_.size(), false);
     seen[t] = true;
     for (std::size_t head = 0; head < queue.size(); ++head) {
       const int cur = queue[head];
       if (!flat[static_cast<std::size_t>(cur)]) {
-        tets_[t].affine = tets_[static_cast<std::size_t>(cur)].affine;
+        affine_[t] = affine_[static_cast<std::size_t>(cur)];
         break;
       }
-      for (int nb : tets_[static_cast<std::size_t>(cur)].neighbour) {
+      for (int nb : geometry_[static_cast<std::size_t>(cur)].neighbour) {
         if (nb >= 0 && !seen[static_cast<std::size_t>(nb)]) {
           seen[static_cast<std::size_t>(nb)] = true;
           queue.push_back(nb);
@@ -175,111 +184,32 @@ void RubberSheet::replaceDegenerate(const std::vector<bool>& flat) {
 
 RubberSheet::~RubberSheet() = default;
 
-RubberSheet::Location RubberSheet::walk(const Eigen::Vector3d& p, int start) const {
-  int current = start;
-  const std::size_t limit = 4 * tets_.size() + 64;
-  for (std::size_t step = 0; step < limit; ++step) {
-    const Tet& t = tets_[static_cast<std::size_t>(current)];
-    const Eigen::Vector3d l = t.bary * (p - t.v0);
-    const double l0 = 1.0 - l.sum();
-    int worst = 0;
-    double lowest = l0;
-    for (int i = 0; i < 3; ++i) {
-      if (l(i) < lowest) {
-        lowest = l(i);
-        worst = i + 1;
-      }
-    }
-    if (lowest >= kInsideTolerance) return {current, false};
-    const int next = t.neighbour[static_cast<std::size_t>(worst)];
-    if (next < 0) return {current, true};
-    current = next;
-  }
-  return bruteForce(p);  // a walk that cycles on a near-degenerate cell; never seen so far
+void RubberSheet::prepare(int threads, const std::vector<Eigen::Vector3d>* sample) const {
+  std::call_once(grid_once_, [&] {
+    locator_->build(
+        threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())),
+        sample);
+  });
 }
 
-RubberSheet::Location RubberSheet::bruteForce(const Eigen::Vector3d& p) const {
-  int best = 0;
-  double best_lowest = -std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0; i < tets_.size(); ++i) {
-    const Eigen::Vector3d l = tets_[i].bary * (p - tets_[i].v0);
-    const double lowest = std::min(1.0 - l.sum(), l.minCoeff());
-    if (lowest > best_lowest) {
-      best_lowest = lowest;
-      best = static_cast<int>(i);
-    }
-  }
-  return {best, best_lowest < kInsideTolerance};
+bool RubberSheet::contains(int tet, const Eigen::Vector3d& p) const {
+  const LocatorTet& t = geometry_[static_cast<std::size_t>(tet)];
+  const Eigen::Vector3d l = t.bary * (p - t.v0);
+  return l.minCoeff() >= -1e-12 && 1.0 - l.sum() >= -1e-12;
+}
+
+Eigen::Vector3i RubberSheet::gridSize() const { return locator_->gridSize(); }
+
+RubberSheet::Location RubberSheet::locate(const Eigen::Vector3d& p) const {
+  prepare();
+  const TetLocator::Location l = locator_->locate(p);
+  return {l.tet, l.outside};
 }
 
 RubberSheet::Location RubberSheet::locateFrom(const Eigen::Vector3d& p, int hint) const {
-  const bool valid = hint >= 0 && static_cast<std::size_t>(hint) < tets_.size();
-  return walk(p, valid ? hint : 0);
-}
-
-RubberSheet::Location RubberSheet::locate(const Eigen::Vector3d& p) const {
-  if (cell_.empty()) return walk(p, 0);
-  if ((p.array() < grid_lo_.array()).any() || (p.array() > grid_hi_.array()).any()) {
-    return {-1, true};
-  }
-  const Eigen::Vector3d f = (p - grid_lo_).cwiseProduct(grid_scale_);
-  const int ix = std::min(static_cast<int>(f.x()), grid_n_.x() - 1);
-  const int iy = std::min(static_cast<int>(f.y()), grid_n_.y() - 1);
-  const int iz = std::min(static_cast<int>(f.z()), grid_n_.z() - 1);
-  const int cell = cell_[(static_cast<std::size_t>(iz) * grid_n_.y() + iy) * grid_n_.x() + ix];
-  if (cell >= 0) return {cell, false};
-  return walk(p, -cell - 1);
-}
-
-void RubberSheet::buildGrid(const Eigen::Isometry3d& input_to_source) {
-  const Eigen::Isometry3d source_to_input = input_to_source.inverse();
-  grid_lo_ = source_to_input * source_.front();
-  grid_hi_ = grid_lo_;
-  for (const auto& s : source_) {
-    grid_lo_ = grid_lo_.cwiseMin(source_to_input * s);
-    grid_hi_ = grid_hi_.cwiseMax(source_to_input * s);
-  }
-  const Eigen::Vector3d extent = (grid_hi_ - grid_lo_).cwiseMax(1e-9);
-  const std::size_t wanted = std::clamp(kCellsPerTet * tets_.size(), kMinCells, kMaxCells);
-  const double h = std::cbrt(extent.prod() / static_cast<double>(wanted));
-  for (int a = 0; a < 3; ++a) {
-    grid_n_(a) = static_cast<int>(std::clamp(std::ceil(extent(a) / h), 1.0, 4096.0));
-    grid_scale_(a) = grid_n_(a) / extent(a);
-  }
-  const int nx = grid_n_.x() + 1;
-  const int ny = grid_n_.y() + 1;
-  const int nz = grid_n_.z() + 1;
-  // Locate every grid vertex, each walk starting where the previous one ended.
-  std::vector<Location> vertex(static_cast<std::size_t>(nx) * ny * nz);
-  int hint = 0;
-  for (int z = 0; z < nz; ++z) {
-    for (int y = 0; y < ny; ++y) {
-      for (int x = 0; x < nx; ++x) {
-        const Eigen::Vector3d p =
-            grid_lo_ + Eigen::Vector3d(x, y, z).cwiseQuotient(grid_scale_);
-        Location loc = walk(p, hint);
-        hint = loc.tet;
-        vertex[(static_cast<std::size_t>(z) * ny + y) * nx + x] = loc;
-      }
-    }
-  }
-  cell_.assign(static_cast<std::size_t>(grid_n_.prod()), 0);
-  for (int z = 0; z < grid_n_.z(); ++z) {
-    for (int y = 0; y < grid_n_.y(); ++y) {
-      for (int x = 0; x < grid_n_.x(); ++x) {
-        const Location& first = vertex[(static_cast<std::size_t>(z) * ny + y) * nx + x];
-        bool full = !first.outside;
-        for (int c = 1; c < 8 && full; ++c) {
-          const Location& other =
-              vertex[(static_cast<std::size_t>(z + (c >> 2)) * ny + y + ((c >> 1) & 1)) * nx + x +
-                     (c & 1)];
-          full = !other.outside && other.tet == first.tet;
-        }
-        cell_[(static_cast<std::size_t>(z) * grid_n_.y() + y) * grid_n_.x() + x] =
-            full ? first.tet : -first.tet - 1;
-      }
-    }
-  }
+  const bool valid = hint >= 0 && static_cast<std::size_t>(hint) < geometry_.size();
+  const TetLocator::Location l = locator_->walk(p, valid ? hint : 0);
+  return {l.tet, l.outside};
 }
 
 Eigen::Vector3d RubberSheet::transformReference(const Eigen::Vector3d& p, bool* outside) const {
@@ -288,7 +218,7 @@ Eigen::Vector3d RubberSheet::transformReference(const Eigen::Vector3d& p, bool* 
   const auto cell = dt.locate(Cgal::Point(q.x(), q.y(), q.z()));
   const bool out = dt.is_infinite(cell);
   if (outside != nullptr) *outside = out;
-  return apply(out ? outside_ : tets_[static_cast<std::size_t>(cell->info())].affine, p);
+  return apply(out ? outside_ : affine_[static_cast<std::size_t>(cell->info())], p);
 }
 
 }  // namespace flexcloud

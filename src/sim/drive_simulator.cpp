@@ -179,6 +179,7 @@ void makeMap(const Route& route, const std::vector<double>& arc,
   map.intensity.reserve(n);
   map.ring.reserve(n);
   map.label.reserve(n);
+  std::vector<std::size_t> scan(n);  // the pose that saw each point
   for (std::size_t i = 0; i < n; ++i) {
     double s = u01(rng) * length;
     const double kind = u01(rng);
@@ -209,12 +210,27 @@ void makeMap(const Route& route, const std::vector<double>& arc,
     const auto it = std::lower_bound(arc.begin(), arc.end(), s_obs);
     const std::size_t k = std::min<std::size_t>(static_cast<std::size_t>(it - arc.begin()),
                                                 arc.size() - 1);
+    scan[i] = k;
     map.truth.push_back(truth_pt);
     map.slam.push_back(slam[k] * (truth[k].inverse() * truth_pt));
     map.intensity.push_back(static_cast<float>(100.0 * u01(rng)));
     map.ring.push_back(static_cast<std::uint16_t>(rng() % 32));
     map.label.push_back(label);
   }
+  // A SLAM map is stored scan by scan: order the points by the pose that saw them.
+  std::vector<std::size_t> order(n);
+  for (std::size_t i = 0; i < n; ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return scan[a] < scan[b]; });
+  auto permute = [&](auto& v) {
+    auto copy = v;
+    for (std::size_t i = 0; i < n; ++i) v[i] = copy[order[i]];
+  };
+  permute(map.slam);
+  permute(map.truth);
+  permute(map.intensity);
+  permute(map.ring);
+  permute(map.label);
 }
 
 }  // namespace

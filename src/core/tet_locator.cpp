@@ -1,0 +1,260 @@
+#include "tet_locator.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <thread>
+
+namespace flexcloud {
+namespace {
+
+constexpr double kInsideTolerance = -1e-12;  // barycentric slack for points on faces
+constexpr std::size_t kCellsPerTet = 8;      // level-1 cells per tetrahedron
+constexpr std::size_t kMinCells = 1 << 12;
+constexpr std::size_t kMaxCells = 1 << 21;
+constexpr std::size_t kSubBudget = 1 << 21;  // sub-cells in all blocks (4 + up to 16 bytes each)
+constexpr int kMaxSub = 16;
+constexpr double kFullEnough = 0.8;  // stop refining a block once this share is full
+
+/// Runs f(begin, end) over [0, n) split into `threads` contiguous parts.
+template <typename F>
+void parallelFor(std::size_t n, int threads, F f) {
+  const auto t = static_cast<std::size_t>(std::max(1, threads));
+  if (t == 1 || n < 2) {
+    f(std::size_t{0}, n);
+    return;
+  }
+  std::vector<std::thread> pool;
+  for (std::size_t k = 1; k < t; ++k) pool.emplace_back(f, n * k / t, n * (k + 1) / t);
+  f(std::size_t{0}, n / t);
+  for (auto& th : pool) th.join();
+}
+
+}  // namespace
+
+TetLocator::TetLocator(const std::vector<LocatorTet>& tets, const Eigen::Vector3d& lo,
+                       const Eigen::Vector3d& hi)
+    : tets_(tets), lo_(lo), hi_(hi) {}
+
+TetLocator::Location TetLocator::walk(const Eigen::Vector3d& p, int start) const {
+  int current = start;
+  const std::size_t limit = 4 * tets_.size() + 64;
+  for (std::size_t step = 0; step < limit; ++step) {
+    const LocatorTet& t = tets_[static_cast<std::size_t>(current)];
+    const Eigen::Vector3d l = t.bary * (p - t.v0);
+    const double l0 = 1.0 - l.sum();
+    int worst = 0;
+    double lowest = l0;
+    for (int i = 0; i < 3; ++i) {
+      if (l(i) < lowest) {
+        lowest = l(i);
+        worst = i + 1;
+      }
+    }
+    if (lowest >= kInsideTolerance) return {current, false};
+    const int next = t.neighbour[static_cast<std::size_t>(worst)];
+    if (next < 0) return {current, true};
+    current = next;
+  }
+  return bruteForce(p);  // a walk that cycles on a near-degenerate cell
+}
+
+TetLocator::Location TetLocator::bruteForce(const Eigen::Vector3d& p) const {
+  int best = 0;
+  double best_lowest = -std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < tets_.size(); ++i) {
+    const Eigen::Vector3d l = tets_[i].bary * (p - tets_[i].v0);
+    const double lowest = std::min(1.0 - l.sum(), l.minCoeff());
+    if (lowest > best_lowest) {
+      best_lowest = lowest;
+      best = static_cast<int>(i);
+    }
+  }
+  return {best, best_lowest < kInsideTolerance};
+}
+
+TetLocator::Location TetLocator::locate(const Eigen::Vector3d& p) const {
+  if ((p.array() < lo_.array()).any() || (p.array() > hi_.array()).any()) return {-1, true};
+  if (cell_.empty()) return walk(p, 0);
+  const Eigen::Vector3d f = (p - lo_).cwiseProduct(scale_);
+  const int ix = std::min(static_cast<int>(f.x()), n_.x() - 1);
+  const int iy = std::min(static_cast<int>(f.y()), n_.y() - 1);
+  const int iz = std::min(static_cast<int>(f.z()), n_.z() - 1);
+  const int v = cell_[(static_cast<std::size_t>(iz) * n_.y() + iy) * n_.x() + ix];
+  if (v >= 0) return {v, false};
+  const Block& b = blocks_[static_cast<std::size_t>(-v - 1)];
+  const int sx = std::min(static_cast<int>((f.x() - ix) * b.s), b.s - 1);
+  const int sy = std::min(static_cast<int>((f.y() - iy) * b.s), b.s - 1);
+  const int sz = std::min(static_cast<int>((f.z() - iz) * b.s), b.s - 1);
+  const int w = sub_[b.offset + (static_cast<std::size_t>(sz) * b.s + sy) * b.s + sx];
+  if (w >= 0) return {w, false};
+  const Candidates& c = candidates_[static_cast<std::size_t>(-w - 1)];
+  for (int t : c) {
+    if (t < 0) break;
+    if (inside(t, p)) return {t, false};
+  }
+  return walk(p, c[0]);
+}
+
+bool TetLocator::inside(int tet, const Eigen::Vector3d& p) const {
+  const LocatorTet& t = tets_[static_cast<std::size_t>(tet)];
+  const Eigen::Vector3d l = t.bary * (p - t.v0);
+  return l.minCoeff() >= kInsideTolerance && 1.0 - l.sum() >= kInsideTolerance;
+}
+
+std::size_t TetLocator::cellOf(const Eigen::Vector3d& p) const {
+  const Eigen::Vector3d f = (p - lo_).cwiseProduct(scale_);
+  const int ix = std::clamp(static_cast<int>(f.x()), 0, n_.x() - 1);
+  const int iy = std::clamp(static_cast<int>(f.y()), 0, n_.y() - 1);
+  const int iz = std::clamp(static_cast<int>(f.z()), 0, n_.z() - 1);
+  return (static_cast<std::size_t>(iz) * n_.y() + iy) * n_.x() + ix;
+}
+
+Eigen::Vector3d TetLocator::corner(int x, int y, int z) const {
+  return lo_ + Eigen::Vector3d(x, y, z).cwiseQuotient(scale_);
+}
+
+TetLocator::SubBlock TetLocator::subdivide(int x, int y, int z, int s, int hint,
+                                           double* full_fraction) const {
+  const int m = s + 1;
+  const Eigen::Vector3d c0 = corner(x, y, z);
+  const Eigen::Vector3d step = Eigen::Vector3d::Ones().cwiseQuotient(scale_) / s;
+  std::vector<Location> vertex(static_cast<std::size_t>(m) * m * m);
+  for (int k = 0; k < m; ++k) {
+    for (int j = 0; j < m; ++j) {
+      for (int i = 0; i < m; ++i) {
+        const Location loc = walk(c0 + Eigen::Vector3d(i, j, k).cwiseProduct(step), hint);
+        hint = loc.tet;
+        vertex[(static_cast<std::size_t>(k) * m + j) * m + i] = loc;
+      }
+    }
+  }
+  SubBlock out;
+  out.sub.resize(static_cast<std::size_t>(s) * s * s);
+  std::size_t full = 0;
+  for (int k = 0; k < s; ++k) {
+    for (int j = 0; j < s; ++j) {
+      for (int i = 0; i < s; ++i) {
+        Candidates c{-1, -1, -1, -1};
+        std::size_t count = 0;
+        bool inside_one = true;
+        for (int q = 0; q < 8; ++q) {
+          const Location& v =
+              vertex[(static_cast<std::size_t>(k + (q >> 2)) * m + j + ((q >> 1) & 1)) * m + i +
+                     (q & 1)];
+          inside_one = inside_one && !v.outside && v.tet == vertex[(static_cast<std::size_t>(k) * m + j) * m + i].tet;
+          if (v.outside || count == c.size() ||
+              std::find(c.begin(), c.begin() + static_cast<std::ptrdiff_t>(count), v.tet) !=
+                  c.begin() + static_cast<std::ptrdiff_t>(count)) {
+            continue;
+          }
+          c[count++] = v.tet;
+        }
+        int& entry = out.sub[(static_cast<std::size_t>(k) * s + j) * s + i];
+        if (inside_one) {
+          ++full;
+          entry = c[0];
+        } else {
+          if (count == 0) c[0] = vertex[(static_cast<std::size_t>(k) * m + j) * m + i].tet;
+          entry = -static_cast<int>(out.candidates.size()) - 1;
+          out.candidates.push_back(c);
+        }
+      }
+    }
+  }
+  *full_fraction = static_cast<double>(full) / static_cast<double>(out.sub.size());
+  return out;
+}
+
+void TetLocator::build(int threads, const std::vector<Eigen::Vector3d>* sample) {
+  const Eigen::Vector3d extent = (hi_ - lo_).cwiseMax(1e-9);
+  const std::size_t wanted = std::clamp(kCellsPerTet * tets_.size(), kMinCells, kMaxCells);
+  const double h = std::cbrt(extent.prod() / static_cast<double>(wanted));
+  for (int a = 0; a < 3; ++a) {
+    n_(a) = static_cast<int>(std::clamp(std::ceil(extent(a) / h), 1.0, 2048.0));
+    scale_(a) = n_(a) / extent(a);
+  }
+  const int nx = n_.x() + 1, ny = n_.y() + 1, nz = n_.z() + 1;
+  // Level 1: locate every grid vertex; each thread walks its slabs, starting where it ended.
+  std::vector<Location> vertex(static_cast<std::size_t>(nx) * ny * nz);
+  parallelFor(static_cast<std::size_t>(nz), threads, [&](std::size_t z0, std::size_t z1) {
+    int hint = 0;
+    for (auto z = static_cast<int>(z0); z < static_cast<int>(z1); ++z) {
+      for (int y = 0; y < ny; ++y) {
+        for (int x = 0; x < nx; ++x) {
+          const Location loc = walk(corner(x, y, z), hint);
+          hint = loc.tet;
+          vertex[(static_cast<std::size_t>(z) * ny + y) * nx + x] = loc;
+        }
+      }
+    }
+  });
+  std::vector<bool> occupied(static_cast<std::size_t>(n_.prod()), sample == nullptr);
+  if (sample != nullptr) {
+    for (const auto& p : *sample) {
+      if (p.allFinite() && (p.array() >= lo_.array()).all() && (p.array() <= hi_.array()).all()) {
+        occupied[cellOf(p)] = true;
+      }
+    }
+  }
+  cell_.assign(static_cast<std::size_t>(n_.prod()), 0);
+  std::vector<std::array<int, 4>> mixed;  // x, y, z, hint
+  std::size_t busy = 0;                   // mixed cells that hold sample points
+  for (int z = 0; z < n_.z(); ++z) {
+    for (int y = 0; y < n_.y(); ++y) {
+      for (int x = 0; x < n_.x(); ++x) {
+        const Location& first = vertex[(static_cast<std::size_t>(z) * ny + y) * nx + x];
+        bool inside = !first.outside;
+        for (int c = 1; c < 8 && inside; ++c) {
+          const Location& o =
+              vertex[(static_cast<std::size_t>(z + (c >> 2)) * ny + y + ((c >> 1) & 1)) * nx + x +
+                     (c & 1)];
+          inside = !o.outside && o.tet == first.tet;
+        }
+        const std::size_t idx = (static_cast<std::size_t>(z) * n_.y() + y) * n_.x() + x;
+        if (inside) {
+          cell_[idx] = first.tet;
+        } else {
+          cell_[idx] = -static_cast<int>(mixed.size()) - 1;
+          // An empty cell keeps a single sub-cell: just a start for the walk.
+          mixed.push_back({x, y, z, occupied[idx] ? first.tet : -first.tet - 1});
+          busy += occupied[idx] ? 1 : 0;
+        }
+      }
+    }
+  }
+  // Level 2: blocks for the mixed cells, as fine as the budget allows and the cell needs.
+  const int s_max = static_cast<int>(std::clamp(
+      std::floor(std::cbrt(static_cast<double>(kSubBudget) / std::max<std::size_t>(1, busy))),
+      1.0, static_cast<double>(kMaxSub)));
+  std::vector<SubBlock> subs(mixed.size());
+  parallelFor(mixed.size(), threads, [&](std::size_t b0, std::size_t b1) {
+    for (std::size_t b = b0; b < b1; ++b) {
+      const auto& c = mixed[b];
+      if (c[3] < 0) {  // no sample point here: a single sub-cell, a start for the walk
+        subs[b].sub = {-1};
+        subs[b].candidates = {{-c[3] - 1, -1, -1, -1}};
+        continue;
+      }
+      // A coarse try first; cells that stay mostly mixed get the finest the budget allows.
+      int s = std::min(4, s_max);
+      double full = 0.0;
+      subs[b] = subdivide(c[0], c[1], c[2], s, c[3], &full);
+      if (full < kFullEnough && s < s_max) subs[b] = subdivide(c[0], c[1], c[2], s_max, c[3], &full);
+    }
+  });
+  blocks_.resize(mixed.size());
+  std::size_t total = 0, lists = 0;
+  for (const auto& s : subs) total += s.sub.size(), lists += s.candidates.size();
+  sub_.reserve(total);
+  candidates_.reserve(lists);
+  for (std::size_t b = 0; b < subs.size(); ++b) {
+    blocks_[b].s = static_cast<int>(std::lround(std::cbrt(static_cast<double>(subs[b].sub.size()))));
+    blocks_[b].offset = sub_.size();
+    const int base = static_cast<int>(candidates_.size());
+    for (int e : subs[b].sub) sub_.push_back(e >= 0 ? e : e - base);
+    candidates_.insert(candidates_.end(), subs[b].candidates.begin(), subs[b].candidates.end());
+  }
+}
+
+}  // namespace flexcloud

@@ -1,0 +1,74 @@
+#pragma once
+// Point location in a tetrahedralization without scanning the tetrahedra, from a two-level grid.
+// Level 1 covers the bounding box; a level-1 cell inside one tetrahedron answers at once, a mixed
+// one holds a block of sub-cells, as fine as a memory budget allows where the points to locate
+// are. A sub-cell inside one tetrahedron answers at once too; a mixed sub-cell lists the
+// tetrahedra at its corners, which are tested directly (independent loads, unlike the steps of a
+// walk), and a visibility walk over neighbours from there settles the rare rest. Thread-safe once
+// built; private to the core.
+
+#include <Eigen/Core>
+#include <array>
+#include <vector>
+
+namespace flexcloud {
+
+/// What the walk needs of a tetrahedron (input frame).
+struct LocatorTet {
+  Eigen::Matrix3d bary;  ///< inverse of [v1-v0 v2-v0 v3-v0]: barycentric coordinates
+  Eigen::Vector3d v0;
+  std::array<int, 4> neighbour;  ///< across the face opposite vertex i; -1 beyond the hull
+};
+
+class TetLocator {
+ public:
+  struct Location {
+    int tet = -1;
+    bool outside = false;  ///< beyond the hull; tet is the hull tetrahedron the walk left by
+  };
+
+  /// `tets` must outlive the locator; lo/hi bound every vertex.
+  TetLocator(const std::vector<LocatorTet>& tets, const Eigen::Vector3d& lo,
+             const Eigen::Vector3d& hi);
+
+  /// Builds the grid (on `threads` threads); until then locate() walks from tetrahedron 0.
+  /// `sample` (optional) are points like those that will be located: mixed cells that hold
+  /// none of them get no sub-cells, so the budget goes where the points are.
+  void build(int threads, const std::vector<Eigen::Vector3d>* sample = nullptr);
+  Location locate(const Eigen::Vector3d& p) const;
+  /// Visibility walk from tetrahedron `start`.
+  Location walk(const Eigen::Vector3d& p, int start) const;
+
+  Eigen::Vector3i gridSize() const { return n_; }
+  /// Sub-cells in all blocks (memory: 4 bytes each).
+  std::size_t subCells() const { return sub_.size(); }
+
+ private:
+  struct Block {
+    int s = 1;               ///< sub-cells per axis
+    std::size_t offset = 0;  ///< first sub-cell in sub_
+  };
+
+  Location bruteForce(const Eigen::Vector3d& p) const;
+  Eigen::Vector3d corner(int x, int y, int z) const;
+  std::size_t cellOf(const Eigen::Vector3d& p) const;
+  using Candidates = std::array<int, 4>;  ///< tetrahedra to test, -1 padded
+  struct SubBlock {
+    std::vector<int> sub;  ///< >= 0 full; < 0: -(candidates + 1), local index
+    std::vector<Candidates> candidates;
+  };
+  /// Sub-cells of level-1 cell (x, y, z) at resolution s.
+  SubBlock subdivide(int x, int y, int z, int s, int hint, double* full_fraction) const;
+  bool inside(int tet, const Eigen::Vector3d& p) const;
+
+  const std::vector<LocatorTet>& tets_;
+  Eigen::Vector3d lo_, hi_;
+  Eigen::Vector3d scale_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3i n_ = Eigen::Vector3i::Zero();
+  std::vector<int> cell_;  ///< >= 0: the cell lies in that tetrahedron; < 0: -(block + 1)
+  std::vector<Block> blocks_;
+  std::vector<int> sub_;  ///< >= 0: the sub-cell lies in that tetrahedron; < 0: -(list + 1)
+  std::vector<Candidates> candidates_;
+};
+
+}  // namespace flexcloud

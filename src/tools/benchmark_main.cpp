@@ -1,0 +1,244 @@
+// flexcloud_benchmark: speed and memory of the warp, the PCD I/O and the whole offline tool.
+// Prints a markdown table (doc/BENCHMARKS.md holds the figures of the reference machine).
+//   flexcloud_benchmark [--points 1000000,10000000] [--control-points 50,200,2000]
+//                       [--threads N] [--work DIR] [--repeat N] [--skip-tool]
+
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <functional>
+#include <iostream>
+#include <random>
+#include <sstream>
+#include <thread>
+
+#include "cli.h"
+#include "flexcloud/cloud_warp.h"
+#include "flexcloud/georeference.h"
+#include "flexcloud/io/atomic_file.h"
+#include "flexcloud/io/pcd_io.h"
+#include "flexcloud/io/text_io.h"
+#include "flexcloud/sim/sim_cloud.h"
+
+namespace {
+
+using namespace flexcloud;
+namespace fs = std::filesystem;
+
+struct Options {
+  std::vector<std::size_t> points{1000000, 10000000};
+  std::vector<int> control_points{50, 200, 2000};
+  int threads = 0;
+  int repeat = 3;
+  bool tool = true;
+  std::string work = (fs::temp_directory_path() / "flexcloud_benchmark").string();
+};
+
+std::vector<double> numbers(const std::string& text) {
+  std::vector<double> out;
+  std::stringstream ss(text);
+  for (std::string item; std::getline(ss, item, ',');) out.push_back(std::stod(item));
+  return out;
+}
+
+Options parse(int argc, char** argv) {
+  cli::Args a(argc, argv);
+  Options o;
+  while (!a.done()) {
+    const std::string f = a.flag();
+    if (f == "--points") {
+      o.points.clear();
+      for (double v : numbers(a.text(f))) o.points.push_back(static_cast<std::size_t>(v));
+    } else if (f == "--control-points") {
+      o.control_points.clear();
+      for (double v : numbers(a.text(f))) o.control_points.push_back(static_cast<int>(v));
+    } else if (f == "--threads") {
+      o.threads = static_cast<int>(a.integer(f));
+    } else if (f == "--repeat") {
+      o.repeat = static_cast<int>(a.integer(f));
+    } else if (f == "--work") {
+      o.work = a.text(f);
+    } else if (f == "--skip-tool") {
+      o.tool = false;
+    } else {
+      throw cli::UsageError("unknown option '" + f + "'");
+    }
+  }
+  return o;
+}
+
+double seconds(const std::function<void()>& f) {
+  const auto t0 = std::chrono::steady_clock::now();
+  f();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+/// Best of `n` runs: the least disturbed by whatever else the machine does.
+double best(int n, const std::function<void()>& f) {
+  double b = 1e300;
+  for (int i = 0; i < n; ++i) b = std::min(b, seconds(f));
+  return b;
+}
+
+struct ProcessRun {
+  int code = -1;
+  double seconds = 0.0;
+  double max_rss_mb = 0.0;
+};
+
+/// Runs a program and measures its wall time and peak resident memory.
+ProcessRun runProcess(const std::vector<std::string>& args) {
+  ProcessRun r;
+  const auto t0 = std::chrono::steady_clock::now();
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    std::freopen("/dev/null", "w", stdout);
+    std::vector<char*> argv;
+    for (const auto& s : args) argv.push_back(const_cast<char*>(s.c_str()));
+    argv.push_back(nullptr);
+    ::execv(argv[0], argv.data());
+    ::_exit(127);
+  }
+  int status = 0;
+  struct rusage usage {};
+  ::wait4(pid, &status, 0, &usage);
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.max_rss_mb = static_cast<double>(usage.ru_maxrss) / 1024.0;  // kB on Linux
+  return r;
+}
+
+std::string toolPath() {
+  char self[4096];
+  const ssize_t n = ::readlink("/proc/self/exe", self, sizeof(self) - 1);
+  self[n > 0 ? n : 0] = '\0';
+  return (fs::path(self).parent_path() / "georeference").string();
+}
+
+void onePointCount(const Options& o, std::size_t n) {
+  sim::SimParams sp;
+  sp.map_points = n;
+  std::fprintf(stderr, "simulating a 5 km drive with %zu map points\n", n);
+  const sim::SimDrive d = sim::simulateDrive(sp);
+  DriveInput in;
+  in.fixes = d.fixes;
+  in.poses = d.slam;
+  const pcl::PCLPointCloud2 original = sim::slamCloud(d.map);
+  const double mb = static_cast<double>(original.data.size()) / 1e6;
+  // The worst case for the location: the same points in random order (a SLAM map is stored scan
+  // by scan, so neighbours in the file are neighbours in space).
+  pcl::PCLPointCloud2 shuffled = original;
+  {
+    std::vector<std::size_t> order(n);
+    for (std::size_t i = 0; i < n; ++i) order[i] = i;
+    std::mt19937_64 rng(7);
+    std::shuffle(order.begin(), order.end(), rng);
+    const std::size_t step = original.point_step;
+    for (std::size_t i = 0; i < n; ++i) {
+      std::copy_n(original.data.begin() + order[i] * step, step, shuffled.data.begin() + i * step);
+    }
+  }
+
+  const std::string dir = o.work + "/n" + std::to_string(n);
+  makeDirectories(dir);
+  const std::string pcd = dir + "/map.pcd";
+  const double write_s = best(o.repeat, [&] { writePcdBinary(pcd, original); });
+  const double read_s = best(o.repeat, [&] { readPcd(pcd); });
+  std::printf("| %zu | PCD write (binary) | | %.3f s | %.1f M/s | cloud %.0f MB |\n", n, write_s,
+              n / write_s / 1e6, mb);
+  std::printf("| %zu | PCD read (binary) | | %.3f s | %.1f M/s | |\n", n, read_s,
+              n / read_s / 1e6);
+
+  std::string gnss_txt, poses_txt;
+  if (o.tool) {
+    std::ostringstream g;
+    g.precision(12);
+    for (const auto& f : d.fixes) {
+      g << f.fix.stamp << ' ' << f.fix.lat << ' ' << f.fix.lon << ' ' << f.fix.alt << ' '
+        << f.fix.std_enu.x() << ' ' << f.fix.std_enu.y() << ' ' << f.fix.std_enu.z() << '\n';
+    }
+    gnss_txt = dir + "/gnss.txt";
+    poses_txt = dir + "/poses.txt";
+    writeTextFile(gnss_txt, g.str());
+    writeTextFile(poses_txt, formatTum(d.slam));
+  }
+  for (int cps : o.control_points) {
+    Params p;
+    p.control_points = cps;
+    p.threads = o.threads;
+    const GeoreferenceResult r = georeference(in, p);
+    pcl::PCLPointCloud2 cloud = original;
+    double warp_s = 1e300;
+    for (int i = 0; i < o.repeat; ++i) {
+      std::copy(original.data.begin(), original.data.end(), cloud.data.begin());
+      warp_s = std::min(warp_s, seconds([&] { warpCloud(cloud, *r.sheet, o.threads); }));
+    }
+    const double build_s = seconds([&] { r.sheet->prepare(o.threads); });
+    std::printf("| %zu | warp (locate + transform) | %d (%zu tetrahedra) | %.3f s | **%.1f M/s** | "
+                "grid built in %.3f s |\n",
+                n, cps, r.sheet->numTetrahedra(), warp_s, n / warp_s / 1e6, build_s);
+    double shuffled_s = 1e300;
+    for (int i = 0; i < o.repeat; ++i) {
+      pcl::PCLPointCloud2 c = shuffled;
+      shuffled_s = std::min(shuffled_s, seconds([&] { warpCloud(c, *r.sheet, o.threads); }));
+    }
+    std::printf("| %zu | warp, points in random order (worst case) | %d | %.3f s | %.1f M/s | |\n",
+                n, cps, shuffled_s, n / shuffled_s / 1e6);
+    if (o.tool) {
+      const ProcessRun t = runProcess({toolPath(), "--gnss", gnss_txt, "--poses", poses_txt, "--map",
+                                       pcd, "--out", dir + "/out", "--control-points",
+                                       std::to_string(cps), "--threads", std::to_string(o.threads),
+                                       "-q"});
+      if (t.code != 0) throw Error("the georeference tool failed with exit code " + std::to_string(t.code));
+      std::printf("| %zu | whole offline tool | %d | %.3f s | %.1f M/s | peak %.0f MB = %.2f x cloud; "
+                  "%.2f x (read + write) |\n",
+                  n, cps, t.seconds, n / t.seconds / 1e6, t.max_rss_mb, t.max_rss_mb / mb,
+                  t.seconds / (read_s + write_s));
+    }
+    std::fflush(stdout);
+  }
+}
+
+void oneHourDrive(const Options& o) {
+  sim::SimParams sp;
+  sp.length = 12.0 * 3600.0;  // an hour at 12 m/s: 36000 poses at 10 Hz, 18000 fixes at 5 Hz
+  sp.map_points = 0;
+  const sim::SimDrive d = sim::simulateDrive(sp);
+  DriveInput in;
+  in.fixes = d.fixes;
+  in.poses = d.slam;
+  Params p;
+  p.control_points = 2000;
+  p.threads = o.threads;
+  GeoreferenceResult r;
+  const double s = best(o.repeat, [&] { r = georeference(in, p); });
+  const auto& t = r.seconds;
+  std::printf("| - | pipeline without map, one-hour drive (%zu poses, %zu fixes) | 2000 (%zu "
+              "tetrahedra) | %.3f s | | interpolation %.3f, alignment %.3f, control points %.3f, "
+              "triangulation %.3f, trajectory %.3f s |\n",
+              r.poses.size(), r.gnss.points.size(), r.sheet->numTetrahedra(), s, t.interpolation,
+              t.alignment, t.control_points, t.triangulation, t.trajectory_warp);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    const Options o = parse(argc, argv);
+    std::printf("machine: %u hardware threads; warp threads: %d\n\n",
+                std::thread::hardware_concurrency(), resolveThreads(o.threads));
+    std::printf("| points | what | control points | time | points/s | notes |\n");
+    std::printf("|---:|---|---|---:|---:|---|\n");
+    oneHourDrive(o);
+    for (std::size_t n : o.points) onePointCount(o, n);
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "flexcloud_benchmark: " << e.what() << std::endl;
+    return 1;
+  }
+}
