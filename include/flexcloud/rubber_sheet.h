@@ -7,6 +7,7 @@
 
 #include <array>
 #include <memory>
+#include <atomic>
 #include <mutex>
 #include <vector>
 
@@ -45,6 +46,7 @@ class RubberSheet {
   /// builds it on first use otherwise. `sample`: input points like those to come, so the fine
   /// cells go where they are. Thread-safe.
   void prepare(int threads = 0, const std::vector<Eigen::Vector3d>* sample = nullptr) const;
+  bool prepared() const { return prepared_.load(std::memory_order_acquire); }
   /// Whether input point p lies in tetrahedron `tet` (within rounding): the check of a
   /// neighbour's tetrahedron before a full location.
   bool contains(int tet, const Eigen::Vector3d& p) const;
@@ -100,6 +102,7 @@ class RubberSheet {
   std::unique_ptr<Cgal> cgal_;
   std::unique_ptr<TetLocator> locator_;
   mutable std::once_flag grid_once_;
+  mutable std::atomic<bool> prepared_{false};
 };
 
 }  // namespace flexcloud

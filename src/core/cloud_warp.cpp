@@ -140,11 +140,13 @@ void warpRange(std::uint8_t* data, std::size_t begin, std::size_t end, std::size
 WarpStats warpPoints(std::uint8_t* data, const XyzLayout& layout, const RubberSheet& sheet,
                      int threads, const std::string& name) {
   const std::size_t n = layout.points;
-  std::vector<Eigen::Vector3d> sample;
-  const std::size_t stride = std::max<std::size_t>(1, n / kSample);
-  sample.reserve(n / stride + 1);
-  for (std::size_t i = 0; i < n; i += stride) sample.push_back(layout.get(data + i * layout.point_step));
-  sheet.prepare(threads, &sample);
+  if (!sheet.prepared()) {
+    std::vector<Eigen::Vector3d> sample;
+    const std::size_t stride = std::max<std::size_t>(1, n / kSample);
+    sample.reserve(n / stride + 1);
+    for (std::size_t i = 0; i < n; i += stride) sample.push_back(layout.get(data + i * layout.point_step));
+    sheet.prepare(threads, &sample);
+  }
   const int workers = std::max(1, std::min<int>(resolveThreads(threads),
                                                 static_cast<int>(n / 65536 + 1)));
   const bool all_float = !layout.is_double[0] && !layout.is_double[1] && !layout.is_double[2];

@@ -109,7 +109,7 @@ RubberSheet::RubberSheet(const std::vector<Eigen::Vector3d>& source,
     lo = lo.cwiseMin(source_to_input * src);
     hi = hi.cwiseMax(source_to_input * src);
   }
-  locator_ = std::make_unique<TetLocator>(geometry_, lo, hi);
+  locator_ = std::make_unique<TetLocator>(geometry_, source_, input_to_source, lo, hi);
 }
 
 void RubberSheet::buildTets(const Eigen::Isometry3d& input_to_source) {
@@ -132,6 +132,7 @@ void RubberSheet::buildTets(const Eigen::Isometry3d& input_to_source) {
       const auto nb = c->neighbor(i);
       tet.neighbour[i] = dt.is_infinite(nb) ? -1 : nb->info();
     }
+    tet.vertex = v;
     const auto& s = source_;
     const auto& d = target_;
     Eigen::Matrix3d edges;
@@ -151,6 +152,11 @@ void RubberSheet::buildTets(const Eigen::Isometry3d& input_to_source) {
     // Fold the input -> source transform in: input point q lies at input_to_source * q.
     tet.bary = bary * rot;
     tet.v0 = source_to_input * s[v[0]];
+    // Rounding of the barycentric coordinates: the inverse's own (conditioning) and that of
+    // subtracting coordinates of this magnitude; 256 eps of both is a safe bound.
+    const double cond = edges.norm() * bary.norm();
+    tet.tolerance = 256.0 * std::numeric_limits<double>::epsilon() *
+                    (cond + bary.norm() * (tet.v0.norm() + longest));
     affine.leftCols<3>() = linear * rot;
     affine.col(3) = linear * (input_to_source.translation() - s[v[0]]) + d[v[0]];
   }
@@ -189,13 +195,12 @@ void RubberSheet::prepare(int threads, const std::vector<Eigen::Vector3d>* sampl
     locator_->build(
         threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())),
         sample);
+    prepared_.store(true, std::memory_order_release);
   });
 }
 
 bool RubberSheet::contains(int tet, const Eigen::Vector3d& p) const {
-  const LocatorTet& t = geometry_[static_cast<std::size_t>(tet)];
-  const Eigen::Vector3d l = t.bary * (p - t.v0);
-  return l.minCoeff() >= -1e-12 && 1.0 - l.sum() >= -1e-12;
+  return locator_->inside(tet, p);
 }
 
 Eigen::Vector3i RubberSheet::gridSize() const { return locator_->gridSize(); }

@@ -1,14 +1,14 @@
 #include "tet_locator.h"
 
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <thread>
 
 namespace flexcloud {
 namespace {
 
-constexpr double kInsideTolerance = -1e-12;  // barycentric slack for points on faces
 constexpr std::size_t kCellsPerTet = 8;      // level-1 cells per tetrahedron
 constexpr std::size_t kMinCells = 1 << 12;
 constexpr std::size_t kMaxCells = 1 << 21;
@@ -32,45 +32,67 @@ void parallelFor(std::size_t n, int threads, F f) {
 
 }  // namespace
 
-TetLocator::TetLocator(const std::vector<LocatorTet>& tets, const Eigen::Vector3d& lo,
+TetLocator::TetLocator(const std::vector<LocatorTet>& tets,
+                       const std::vector<Eigen::Vector3d>& sources,
+                       const Eigen::Isometry3d& input_to_source, const Eigen::Vector3d& lo,
                        const Eigen::Vector3d& hi)
-    : tets_(tets), lo_(lo), hi_(hi) {}
+    : tets_(tets), sources_(sources), input_to_source_(input_to_source), lo_(lo), hi_(hi) {}
+
+int TetLocator::exit(int tet, const Eigen::Vector3d& p) const {
+  const LocatorTet& t = tets_[static_cast<std::size_t>(tet)];
+  const Eigen::Vector3d l = t.bary * (p - t.v0);
+  int worst = 0;
+  double lowest = 1.0 - l.sum();
+  for (int i = 0; i < 3; ++i) {
+    if (l(i) < lowest) {
+      lowest = l(i);
+      worst = i + 1;
+    }
+  }
+  if (lowest >= t.tolerance) return -1;    // inside beyond doubt
+  if (lowest < -t.tolerance) return worst;  // outside beyond doubt
+  return exactExit(t, p);
+}
+
+int TetLocator::exactExit(const LocatorTet& t, const Eigen::Vector3d& p) const {
+  using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+  const Eigen::Vector3d q = input_to_source_ * p;  // as CGAL's own location sees the point
+  std::array<K::Point_3, 4> v;
+  for (int i = 0; i < 4; ++i) {
+    const Eigen::Vector3d& s = sources_[static_cast<std::size_t>(t.vertex[i])];
+    v[i] = K::Point_3(s.x(), s.y(), s.z());
+  }
+  for (int i = 0; i < 4; ++i) {
+    std::array<K::Point_3, 4> w = v;
+    w[i] = K::Point_3(q.x(), q.y(), q.z());
+    if (CGAL::orientation(w[0], w[1], w[2], w[3]) == CGAL::NEGATIVE) return i;
+  }
+  return -1;
+}
 
 TetLocator::Location TetLocator::walk(const Eigen::Vector3d& p, int start) const {
   int current = start;
   const std::size_t limit = 4 * tets_.size() + 64;
   for (std::size_t step = 0; step < limit; ++step) {
-    const LocatorTet& t = tets_[static_cast<std::size_t>(current)];
-    const Eigen::Vector3d l = t.bary * (p - t.v0);
-    const double l0 = 1.0 - l.sum();
-    int worst = 0;
-    double lowest = l0;
-    for (int i = 0; i < 3; ++i) {
-      if (l(i) < lowest) {
-        lowest = l(i);
-        worst = i + 1;
-      }
-    }
-    if (lowest >= kInsideTolerance) return {current, false};
-    const int next = t.neighbour[static_cast<std::size_t>(worst)];
+    const int face = exit(current, p);
+    if (face < 0) return {current, false};
+    const int next = tets_[static_cast<std::size_t>(current)].neighbour[static_cast<std::size_t>(face)];
     if (next < 0) return {current, true};
     current = next;
   }
-  return bruteForce(p);  // a walk that cycles on a near-degenerate cell
+  return bruteForce(p);  // never seen: a visibility walk in a Delaunay triangulation ends
 }
 
 TetLocator::Location TetLocator::bruteForce(const Eigen::Vector3d& p) const {
-  int best = 0;
-  double best_lowest = -std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < tets_.size(); ++i) {
-    const Eigen::Vector3d l = tets_[i].bary * (p - tets_[i].v0);
-    const double lowest = std::min(1.0 - l.sum(), l.minCoeff());
-    if (lowest > best_lowest) {
-      best_lowest = lowest;
-      best = static_cast<int>(i);
+    if (exit(static_cast<int>(i), p) < 0) return {static_cast<int>(i), false};
+  }
+  for (std::size_t i = 0; i < tets_.size(); ++i) {  // outside: a tetrahedron on the hull
+    for (int nb : tets_[i].neighbour) {
+      if (nb < 0) return {static_cast<int>(i), true};
     }
   }
-  return {best, best_lowest < kInsideTolerance};
+  return {0, true};
 }
 
 TetLocator::Location TetLocator::locate(const Eigen::Vector3d& p) const {
@@ -96,11 +118,7 @@ TetLocator::Location TetLocator::locate(const Eigen::Vector3d& p) const {
   return walk(p, c[0]);
 }
 
-bool TetLocator::inside(int tet, const Eigen::Vector3d& p) const {
-  const LocatorTet& t = tets_[static_cast<std::size_t>(tet)];
-  const Eigen::Vector3d l = t.bary * (p - t.v0);
-  return l.minCoeff() >= kInsideTolerance && 1.0 - l.sum() >= kInsideTolerance;
-}
+
 
 std::size_t TetLocator::cellOf(const Eigen::Vector3d& p) const {
   const Eigen::Vector3d f = (p - lo_).cwiseProduct(scale_);

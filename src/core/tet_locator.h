@@ -8,16 +8,22 @@
 // built; private to the core.
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <array>
 #include <vector>
 
 namespace flexcloud {
 
-/// What the walk needs of a tetrahedron (input frame).
+/// What the walk needs of a tetrahedron.
 struct LocatorTet {
-  Eigen::Matrix3d bary;  ///< inverse of [v1-v0 v2-v0 v3-v0]: barycentric coordinates
-  Eigen::Vector3d v0;
+  Eigen::Matrix3d bary;  ///< inverse of [v1-v0 v2-v0 v3-v0], input frame: barycentric coordinates
+  Eigen::Vector3d v0;    ///< input frame
   std::array<int, 4> neighbour;  ///< across the face opposite vertex i; -1 beyond the hull
+  std::array<int, 4> vertex;     ///< source indices, positively oriented (CGAL's order)
+  /// Bound of the rounding error of the barycentric coordinates. Beyond it their sign is
+  /// certain; within it (a point on a face, or a needle-shaped tetrahedron) exact orientation
+  /// predicates on the source coordinates decide, as CGAL's own location does.
+  double tolerance = 0.0;
 };
 
 class TetLocator {
@@ -27,8 +33,10 @@ class TetLocator {
     bool outside = false;  ///< beyond the hull; tet is the hull tetrahedron the walk left by
   };
 
-  /// `tets` must outlive the locator; lo/hi bound every vertex.
-  TetLocator(const std::vector<LocatorTet>& tets, const Eigen::Vector3d& lo,
+  /// `tets` and `sources` (the vertices, source frame) must outlive the locator; input points
+  /// map to the source frame by input_to_source; lo/hi (input frame) bound every vertex.
+  TetLocator(const std::vector<LocatorTet>& tets, const std::vector<Eigen::Vector3d>& sources,
+             const Eigen::Isometry3d& input_to_source, const Eigen::Vector3d& lo,
              const Eigen::Vector3d& hi);
 
   /// Builds the grid (on `threads` threads); until then locate() walks from tetrahedron 0.
@@ -38,6 +46,8 @@ class TetLocator {
   Location locate(const Eigen::Vector3d& p) const;
   /// Visibility walk from tetrahedron `start`.
   Location walk(const Eigen::Vector3d& p, int start) const;
+  /// Whether p lies in the tetrahedron (on its faces included).
+  bool inside(int tet, const Eigen::Vector3d& p) const { return exit(tet, p) < 0; }
 
   Eigen::Vector3i gridSize() const { return n_; }
   /// Sub-cells in all blocks (memory: 4 bytes each).
@@ -59,9 +69,13 @@ class TetLocator {
   };
   /// Sub-cells of level-1 cell (x, y, z) at resolution s.
   SubBlock subdivide(int x, int y, int z, int s, int hint, double* full_fraction) const;
-  bool inside(int tet, const Eigen::Vector3d& p) const;
+  /// -1 when p lies in the tetrahedron, else a face (opposite vertex i) p lies beyond.
+  int exit(int tet, const Eigen::Vector3d& p) const;
+  int exactExit(const LocatorTet& t, const Eigen::Vector3d& p) const;
 
   const std::vector<LocatorTet>& tets_;
+  const std::vector<Eigen::Vector3d>& sources_;
+  Eigen::Isometry3d input_to_source_;
   Eigen::Vector3d lo_, hi_;
   Eigen::Vector3d scale_ = Eigen::Vector3d::Zero();
   Eigen::Vector3i n_ = Eigen::Vector3i::Zero();

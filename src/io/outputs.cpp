@@ -2,7 +2,6 @@
 
 #include <unistd.h>
 
-#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <iomanip>
@@ -10,8 +9,8 @@
 #include <sstream>
 
 #include "flexcloud/io/atomic_file.h"
+#include "flexcloud/io/memory.h"
 #include "flexcloud/io/param_table.h"
-#include "flexcloud/io/pcd_io.h"
 #include "flexcloud/io/text_io.h"
 
 namespace flexcloud {
@@ -140,8 +139,10 @@ std::string reportJson(const GeoreferenceResult& r, const Params& params, const 
                   {"triangulation", s.triangulation},
                   {"trajectory_warp", s.trajectory_warp},
                   {"map_read", map ? map->read_seconds : 0.0},
+                  {"map_location_grid", map ? map->grid_seconds : 0.0},
                   {"map_warp", map ? map->warp_seconds : 0.0},
                   {"map_write", map ? map->write_seconds : 0.0}};
+  j["peak_memory_mb"] = peakMemoryMb();
   return j.dump(2) + "\n";
 }
 
@@ -196,16 +197,9 @@ std::string gnssTum(const GeoreferenceResult& r) {
 }
 
 void writeOutputs(const std::string& dir, const GeoreferenceResult& r, const Params& params,
-                  const pcl::PCLPointCloud2* map, MapInfo* map_info, const FrameNames& frames) {
+                  const MapWriter& write_map, const MapInfo* map_info, const FrameNames& frames) {
   Staging stage(dir);
-  if (map != nullptr) {
-    const auto t0 = std::chrono::steady_clock::now();
-    writePcdBinary(stage.path("map_georeferenced.pcd"), *map);
-    if (map_info != nullptr) {
-      map_info->write_seconds =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    }
-  }
+  if (write_map) write_map(stage.path("map_georeferenced.pcd"));
   writeTextFile(stage.path("trajectory_gnss.txt"), gnssTum(r));
   writeTextFile(stage.path("trajectory_slam.txt"), formatTum(r.poses));
   writeTextFile(stage.path("trajectory_aligned.txt"), formatTum(r.aligned));

@@ -4,8 +4,8 @@
 #include <pcl/io/pcd_io.h>
 
 
-#include "flexcloud/io/atomic_file.h"
 #include "flexcloud/io/pcd_header.h"
+#include "flexcloud/io/pcd_stream.h"
 #include "flexcloud/types.h"
 
 namespace flexcloud {
@@ -18,7 +18,21 @@ void quietPcl() { pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS); }
 
 pcl::PCLPointCloud2 readPcd(const std::string& path) {
   quietPcl();
-  readPcdHeader(path);  // PCL trusts the header; check it first
+  const PcdHeader header = readPcdHeader(path);  // PCL trusts the header; check it first
+  if (header.data == PcdHeader::Data::kBinary) {
+    // Our own reader: straight into the cloud's buffer, no memory map beside it.
+    PcdChunkReader reader(path);
+    pcl::PCLPointCloud2 cloud;
+    cloud.fields = pclFields(header);
+    cloud.width = static_cast<std::uint32_t>(header.width);
+    cloud.height = static_cast<std::uint32_t>(header.height);
+    cloud.point_step = static_cast<std::uint32_t>(header.point_step);
+    cloud.row_step = cloud.point_step * cloud.width;
+    cloud.is_dense = 0;
+    cloud.data.resize(header.points * header.point_step);
+    reader.read(cloud.data.data(), header.points);
+    return cloud;
+  }
   pcl::PCDReader reader;
   pcl::PCLPointCloud2 cloud;
   Eigen::Vector4f origin;
@@ -37,18 +51,21 @@ pcl::PCLPointCloud2 readPcd(const std::string& path) {
 }
 
 void writePcdBinary(const std::string& path, const pcl::PCLPointCloud2& cloud) {
-  quietPcl();
-  AtomicFile file(path);
-  pcl::PCDWriter writer;
-  int rc = 0;
-  try {
-    rc = writer.writeBinary(file.tempPath(), cloud, Eigen::Vector4f::Zero(),
-                            Eigen::Quaternionf::Identity());
-  } catch (const std::exception& e) {
-    throw Error(path + ": cannot write PCD: " + e.what());
+  writePcdBinary(path, cloud.fields, cloud.point_step, cloud.width, cloud.height,
+                 cloud.data.data(), cloud.data.size());
+}
+
+void writePcdBinary(const std::string& path, const std::vector<pcl::PCLPointField>& fields,
+                    std::size_t point_step, std::uint32_t width, std::uint32_t height,
+                    const std::uint8_t* data, std::size_t bytes) {
+  const std::size_t points = static_cast<std::size_t>(width) * height;
+  if (bytes != points * point_step) {
+    throw Error(path + ": the cloud holds " + std::to_string(bytes) + " bytes for " +
+                std::to_string(points) + " points of " + std::to_string(point_step));
   }
-  if (rc != 0) throw Error(path + ": cannot write PCD (disk full or folder not writable?)");
-  file.commit();
+  PcdChunkWriter writer(path, fields, point_step, width, height);
+  writer.write(data, points);
+  writer.commit();
 }
 
 }  // namespace flexcloud

@@ -409,13 +409,16 @@ flexcloud::Save::Response GeoreferenceNode::save(const std::string& dir) {
     return res;
   }
   try {
-    std::optional<pcl::PCLPointCloud2> cloud;
+    MapWriter write_map;
     if (s->map) {
-      cloud.emplace();
-      pcl_conversions::toPCL(*s->map, *cloud);
+      write_map = [&](const std::string& path) {
+        std::vector<pcl::PCLPointField> fields;
+        pcl_conversions::toPCL(s->map->fields, fields);
+        writePcdBinary(path, fields, s->map->point_step, s->map->width, s->map->height,
+                       s->map->data.data(), s->map->data.size());
+      };
     }
-    MapInfo info = s->map_info;
-    writeOutputs(dir, s->result, s->params, cloud ? &*cloud : nullptr, cloud ? &info : nullptr,
+    writeOutputs(dir, s->result, s->params, write_map, s->map ? &s->map_info : nullptr,
                  s->frames);
     res.success = true;
     res.message = "wrote the result into " + dir;

@@ -179,7 +179,8 @@ void makeMap(const Route& route, const std::vector<double>& arc,
   map.intensity.reserve(n);
   map.ring.reserve(n);
   map.label.reserve(n);
-  std::vector<std::size_t> scan(n);  // the pose that saw each point
+  std::vector<std::size_t> scan(n);    // the pose that saw each point
+  std::vector<double> azimuth(n);      // and its direction from that pose
   for (std::size_t i = 0; i < n; ++i) {
     double s = u01(rng) * length;
     const double kind = u01(rng);
@@ -211,17 +212,21 @@ void makeMap(const Route& route, const std::vector<double>& arc,
     const std::size_t k = std::min<std::size_t>(static_cast<std::size_t>(it - arc.begin()),
                                                 arc.size() - 1);
     scan[i] = k;
+    const Eigen::Vector3d seen = truth[k].inverse() * truth_pt;
+    azimuth[i] = std::atan2(seen.y(), seen.x());
     map.truth.push_back(truth_pt);
     map.slam.push_back(slam[k] * (truth[k].inverse() * truth_pt));
     map.intensity.push_back(static_cast<float>(100.0 * u01(rng)));
     map.ring.push_back(static_cast<std::uint16_t>(rng() % 32));
     map.label.push_back(label);
   }
-  // A SLAM map is stored scan by scan: order the points by the pose that saw them.
+  // A SLAM map is stored scan by scan, each scan as the LiDAR swept it: order the points by the
+  // pose that saw them, then by azimuth.
   std::vector<std::size_t> order(n);
   for (std::size_t i = 0; i < n; ++i) order[i] = i;
-  std::stable_sort(order.begin(), order.end(),
-                   [&](std::size_t a, std::size_t b) { return scan[a] < scan[b]; });
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return scan[a] != scan[b] ? scan[a] < scan[b] : azimuth[a] < azimuth[b];
+  });
   auto permute = [&](auto& v) {
     auto copy = v;
     for (std::size_t i = 0; i < n; ++i) v[i] = copy[order[i]];

@@ -14,6 +14,9 @@
 #include "cli.h"
 #include "flexcloud/cloud_warp.h"
 #include "flexcloud/io/config.h"
+#include "flexcloud/io/map_stream.h"
+#include "flexcloud/io/pcd_header.h"
+#include "flexcloud/io/pcd_stream.h"
 #include "flexcloud/io/outputs.h"
 #include "flexcloud/io/param_table.h"
 #include "flexcloud/io/pcd_io.h"
@@ -219,20 +222,24 @@ int run(int argc, char** argv) {
   const DriveInput drive = loadDrive(o, log, frames.map);
   checkCancel();
 
+  // The map is checked before the pipeline runs. A binary PCD is streamed (read, warped and
+  // written chunk by chunk: memory stays small whatever its size); others are loaded whole.
   std::optional<pcl::PCLPointCloud2> map;
   MapInfo info;
+  bool stream = false;
   if (!o.map.empty()) {
-    log.say("reading " + o.map);
-    const auto t0 = std::chrono::steady_clock::now();
-    map = readPcd(o.map);
-    info.read_seconds = since(t0);
+    const PcdHeader header = readPcdHeader(o.map);
+    if (header.points == 0) throw Error(o.map + ": the map holds no points");
+    XyzLayout::of(pclFields(header), header.point_step, header.points,
+                  header.points * header.point_step, o.map);
+    stream = header.data == PcdHeader::Data::kBinary;
     info.input = o.map;
-    if (static_cast<std::size_t>(map->width) * map->height == 0) {
-      throw Error(o.map + ": the map holds no points");
+    if (!stream) {
+      log.say("reading " + o.map);
+      const auto t0 = std::chrono::steady_clock::now();
+      map = readPcd(o.map);
+      info.read_seconds = since(t0);
     }
-    XyzLayout::of(*map, o.map);  // fail on a bad layout before the pipeline runs
-    log.say("  " + std::to_string(static_cast<std::size_t>(map->width) * map->height) +
-            " points in " + std::to_string(info.read_seconds) + " s");
   }
   checkCancel();
 
@@ -240,12 +247,21 @@ int run(int argc, char** argv) {
   const GeoreferenceResult r = georeference(drive, params);
   checkCancel();
 
-  if (map) {
-    std::optional<pcl::PCLPointCloud2> truth;
+  MapWriter write_map;
+  if (stream) {
+    write_map = [&](const std::string& path) {
+      log.say("warping " + o.map + " (streamed)");
+      MapStreamOptions so;
+      so.threads = params.threads;
+      so.truth = o.truth;
+      so.T_enu_map = r.T_enu_map;
+      warpPcdFile(o.map, path, *r.sheet, so, info);
+    };
+  } else if (map) {
     if (!o.truth.empty()) {
-      truth = readPcd(o.truth);
+      const pcl::PCLPointCloud2 truth = readPcd(o.truth);
       info.has_truth = true;
-      info.truth_aligned = compareClouds(*map, *truth, [&](const Eigen::Vector3d& p) {
+      info.truth_aligned = compareClouds(*map, truth, [&](const Eigen::Vector3d& p) {
         return Eigen::Vector3d(r.T_enu_map * p);
       });
     }
@@ -253,17 +269,26 @@ int run(int argc, char** argv) {
     const auto t0 = std::chrono::steady_clock::now();
     info.warp = warpCloud(*map, *r.sheet, params.threads, o.map);
     info.warp_seconds = since(t0);
-    if (truth) {
-      info.truth_rubbersheet =
-          compareClouds(*map, *truth, [](const Eigen::Vector3d& p) { return p; });
+    if (!o.truth.empty()) {
+      info.truth_rubbersheet = compareClouds(*map, readPcd(o.truth),
+                                             [](const Eigen::Vector3d& p) { return p; });
     }
-    log.say("  " + std::to_string(info.warp.points) + " points in " +
-            std::to_string(info.warp_seconds) + " s");
+    write_map = [&](const std::string& path) {
+      const auto t1 = std::chrono::steady_clock::now();
+      writePcdBinary(path, *map);
+      info.write_seconds = since(t1);
+    };
   }
   checkCancel();
   log.say("writing " + o.out);
-  writeOutputs(o.out, r, params, map ? &*map : nullptr, map ? &info : nullptr, frames);
-  printSummary(r, map ? &info : nullptr, o.out);
+  const bool has_map = !o.map.empty();
+  writeOutputs(o.out, r, params, write_map, has_map ? &info : nullptr, frames);
+  if (has_map) {
+    log.say("  map: read " + std::to_string(info.read_seconds) + " s, warp " +
+            std::to_string(info.warp_seconds) + " s, write " + std::to_string(info.write_seconds) +
+            " s");
+  }
+  printSummary(r, has_map ? &info : nullptr, o.out);
   return 0;
 }
 

@@ -146,7 +146,13 @@ TEST(RubberSheet, InputFrameIsFoldedIn) {
   const RubberSheet rs(s.src, s.dst, identityAffine(), input_to_source);
   const Eigen::Isometry3d back = input_to_source.inverse();
   for (std::size_t i = 0; i < s.src.size(); ++i) {
-    EXPECT_LT((rs.transform(back * s.src[i]) - s.dst[i]).norm(), 1e-9);
+    const Eigen::Vector3d q = back * s.src[i];
+    if (i < 100) {  // interior control points map onto their targets
+      EXPECT_LT((rs.transform(q) - s.dst[i]).norm(), 1e-9);
+    } else {  // cube corners: after the frame change they may round to just beyond the hull,
+              // where this test's outside transform (identity) applies, for CGAL as for us
+      EXPECT_LT((rs.transform(q) - rs.transformReference(q)).norm(), 1e-9);
+    }
   }
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> u(0.0, 100.0);

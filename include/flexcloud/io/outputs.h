@@ -4,6 +4,7 @@
 
 #include <pcl/PCLPointCloud2.h>
 
+#include <functional>
 #include <string>
 
 #include "flexcloud/cloud_warp.h"
@@ -19,6 +20,7 @@ struct MapInfo {
   ErrorStats truth_aligned;      ///< rigid-only map against the ground truth
   ErrorStats truth_rubbersheet;  ///< final map against the ground truth
   double read_seconds = 0.0;
+  double grid_seconds = 0.0;  ///< building the point location grid
   double warp_seconds = 0.0;
   double write_seconds = 0.0;
 };
@@ -36,11 +38,15 @@ std::string controlPointsText(const GeoreferenceResult& r);
 /// The interpolated GNSS at every matched pose as TUM (identity orientation).
 std::string gnssTum(const GeoreferenceResult& r);
 
-/// Writes map_georeferenced.pcd (if map != nullptr; map_info then gets write_seconds),
-/// trajectory_{gnss,slam,aligned,rubbersheet}.txt, control_points.txt, origin.yaml and
-/// report.json into `dir` (created if needed). Throws Error; on failure `dir` keeps its
-/// previous files.
+/// Writes the georeferenced map to the path it is given (a finished cloud, or a streaming warp
+/// that fills the MapInfo as it goes).
+using MapWriter = std::function<void(const std::string& path)>;
+
+/// Writes map_georeferenced.pcd (through write_map, if given; it runs first, so the report
+/// sees what it put into map_info), trajectory_{gnss,slam,aligned,rubbersheet}.txt,
+/// control_points.txt, origin.yaml and report.json into `dir` (created if needed). Throws
+/// Error; on failure `dir` keeps its previous files.
 void writeOutputs(const std::string& dir, const GeoreferenceResult& r, const Params& params,
-                  const pcl::PCLPointCloud2* map, MapInfo* map_info, const FrameNames& frames);
+                  const MapWriter& write_map, const MapInfo* map_info, const FrameNames& frames);
 
 }  // namespace flexcloud

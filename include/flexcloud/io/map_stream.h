@@ -1,0 +1,30 @@
+#pragma once
+// Warping a binary PCD map file into another chunk by chunk: memory stays at a few chunks
+// whatever the map's size, and reading, warping and writing overlap.
+
+#include <Eigen/Geometry>
+#include <string>
+
+#include "flexcloud/io/outputs.h"
+#include "flexcloud/rubber_sheet.h"
+
+namespace flexcloud {
+
+struct MapStreamOptions {
+  int threads = 0;                  ///< warp threads; 0: all cores
+  std::size_t chunk_points = 1 << 20;
+  std::string truth;                ///< optional ground truth PCD: same points, same order
+  Eigen::Isometry3d T_enu_map = Eigen::Isometry3d::Identity();  ///< for the rigid-only error
+  /// Copy in the kernel and warp in place through memory maps where the filesystem can reserve
+  /// the space; false: always read, warp and write through buffers.
+  bool in_place = true;
+};
+
+/// Warps binary PCD `in` into binary PCD `out` (written under a temporary name, renamed when
+/// complete) and fills info's warp counts, stage seconds and, with a truth, its errors.
+/// Throws Error for a bad file, a truth of another size, a write failure or cancellation
+/// (g_cancel).
+void warpPcdFile(const std::string& in, const std::string& out, const RubberSheet& sheet,
+                 const MapStreamOptions& options, MapInfo& info);
+
+}  // namespace flexcloud

@@ -1,0 +1,340 @@
+#include "flexcloud/io/map_stream.h"
+
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include <array>
+#include <atomic>
+#include <cerrno>
+#include <chrono>
+#include <condition_variable>
+#include <cstring>
+#include <future>
+#include <mutex>
+#include <optional>
+#include <thread>
+
+#include "flexcloud/io/pcd_io.h"
+#include "flexcloud/io/pcd_stream.h"
+
+namespace flexcloud {
+namespace {
+
+constexpr std::size_t kSampleBlocks = 1024;  // spread over the file: a map is in scan order
+constexpr std::size_t kSampleBlock = 256;
+
+using Clock = std::chrono::steady_clock;
+
+double since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+/// The truth's points chunk by chunk, from a binary file or from one loaded whole.
+class TruthSource {
+ public:
+  TruthSource(const std::string& path, std::size_t points) {
+    const PcdHeader h = readPcdHeader(path);
+    if (h.points != points) {
+      throw Error(path + ": the truth holds " + std::to_string(h.points) + " points, the map " +
+                  std::to_string(points));
+    }
+    if (h.data == PcdHeader::Data::kBinary) {
+      reader_.emplace(path);
+      layout_ = XyzLayout::of(pclFields(h), h.point_step, h.points, h.points * h.point_step, path);
+    } else {
+      whole_ = readPcd(path);
+      layout_ = XyzLayout::of(*whole_, path);
+    }
+  }
+  /// Points [first, first + n) of the truth.
+  const std::uint8_t* chunk(std::size_t first, std::size_t n) {
+    if (whole_) return whole_->data.data() + first * layout_.point_step;
+    buffer_.resize(n * layout_.point_step);
+    reader_->readAt(first, n, buffer_.data());
+    return buffer_.data();
+  }
+  const XyzLayout& layout() const { return layout_; }
+
+ private:
+  std::optional<PcdChunkReader> reader_;
+  std::optional<pcl::PCLPointCloud2> whole_;
+  XyzLayout layout_;
+  std::vector<std::uint8_t> buffer_;
+};
+
+/// One map file being warped: the per-chunk work shared by both ways of moving the bytes.
+class MapJob {
+ public:
+  MapJob(const std::string& in, const RubberSheet& sheet, const MapStreamOptions& options,
+         MapInfo& info)
+      : in_(in), reader_(in), fields_(pclFields(reader_.header())), sheet_(sheet),
+        options_(options), info_(info) {
+    const PcdHeader& h = reader_.header();
+    layout_ = XyzLayout::of(fields_, h.point_step, h.points, h.points * h.point_step, in);
+    if (!options.truth.empty()) truth_.emplace(options.truth, h.points);
+  }
+
+  const PcdHeader& header() const { return reader_.header(); }
+  const std::vector<pcl::PCLPointField>& fields() const { return fields_; }
+  PcdChunkReader& reader() { return reader_; }
+
+  /// Builds the location grid from sample blocks spread over the whole file.
+  void prepare() {
+    const PcdHeader& h = header();
+    const auto t0 = Clock::now();
+    const std::size_t block = std::min(kSampleBlock, h.points);
+    std::vector<std::uint8_t> buf(block * h.point_step);
+    std::vector<Eigen::Vector3d> sample;
+    for (std::size_t k = 0; k < kSampleBlocks && block > 0; ++k) {
+      const std::size_t first = (h.points - block) * k / (kSampleBlocks - 1);
+      reader_.readAt(first, block, buf.data());
+      for (std::size_t i = 0; i < block; ++i) sample.push_back(layout_.get(buf.data() + i * h.point_step));
+    }
+    info_.read_seconds += since(t0);
+    const auto t1 = Clock::now();
+    sheet_.prepare(options_.threads, &sample);
+    info_.grid_seconds += since(t1);
+  }
+
+  /// Warps points [first, first + n) held at `data`, comparing with the truth before and after.
+  void warp(std::uint8_t* data, std::size_t first, std::size_t n) {
+    if (g_cancel) throw Error(in_ + ": warp cancelled");
+    const std::uint8_t* t = truth_ ? truth_->chunk(first, n) : nullptr;
+    if (t) compare(data, t, n, options_.T_enu_map, aligned_);
+    const auto t0 = Clock::now();
+    XyzLayout part = layout_;
+    part.points = n;
+    const WarpStats s = warpPoints(data, part, sheet_, options_.threads, in_);
+    info_.warp_seconds += since(t0);
+    info_.warp.points += s.points;
+    info_.warp.outside += s.outside;
+    info_.warp.non_finite += s.non_finite;
+    if (t) compare(data, t, n, Eigen::Isometry3d::Identity(), warped_);
+  }
+
+  void finish() {
+    info_.input = in_;
+    if (truth_) {
+      info_.has_truth = true;
+      info_.truth_aligned = aligned_.stats();
+      info_.truth_rubbersheet = warped_.stats();
+    }
+  }
+
+  MapInfo& info() { return info_; }
+  std::size_t chunk() const { return std::max<std::size_t>(1, options_.chunk_points); }
+
+ private:
+  void compare(const std::uint8_t* pa, const std::uint8_t* pb, std::size_t n,
+               const Eigen::Isometry3d& f, ErrorAccumulator& acc) const {
+    const XyzLayout& b = truth_->layout();
+    for (std::size_t i = 0; i < n; ++i) {
+      const Eigen::Vector3d p = layout_.get(pa + i * layout_.point_step);
+      const Eigen::Vector3d q = b.get(pb + i * b.point_step);
+      if (p.allFinite() && q.allFinite()) acc.add((f * p - q).norm());
+    }
+  }
+
+  std::string in_;
+  PcdChunkReader reader_;
+  std::vector<pcl::PCLPointField> fields_;
+  XyzLayout layout_;
+  const RubberSheet& sheet_;
+  const MapStreamOptions& options_;
+  MapInfo& info_;
+  std::optional<TruthSource> truth_;
+  ErrorAccumulator aligned_, warped_;
+};
+
+/// Copies `bytes` from in_fd at in_off to out_fd at out_off in the kernel (copy_file_range),
+/// or through a buffer where the filesystems cannot.
+void copyRange(int in_fd, off_t in_off, int out_fd, off_t out_off, std::size_t bytes,
+               const std::string& name) {
+  bool kernel = true;
+  std::vector<std::uint8_t> buf;
+  while (bytes > 0) {
+    ssize_t n = -1;
+    if (kernel) {
+      n = ::copy_file_range(in_fd, &in_off, out_fd, &out_off, bytes, 0);
+      if (n < 0 && (errno == EXDEV || errno == EINVAL || errno == ENOSYS || errno == EOPNOTSUPP)) {
+        kernel = false;
+        continue;
+      }
+    } else {
+      if (buf.empty()) buf.resize(std::size_t{1} << 22);
+      n = ::pread(in_fd, buf.data(), std::min(bytes, buf.size()), in_off);
+      if (n > 0) {
+        for (ssize_t done = 0; done < n;) {
+          const ssize_t w = ::pwrite(out_fd, buf.data() + done, static_cast<std::size_t>(n - done), out_off + done);
+          if (w < 0 && errno == EINTR) continue;
+          if (w <= 0) throw Error(name + ": write failed: " + std::strerror(errno));
+          done += w;
+        }
+        in_off += n;
+        out_off += n;
+      }
+    }
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      throw Error(name + ": copying the map failed" +
+                  (n < 0 ? std::string(": ") + std::strerror(errno) : std::string(" (input cut short?)")));
+    }
+    bytes -= static_cast<std::size_t>(n);
+  }
+}
+
+/// Closes a file descriptor on scope exit unless released.
+struct FdGuard {
+  int fd;
+  ~FdGuard() {
+    if (fd >= 0) ::close(fd);
+  }
+  int release() {
+    const int f = fd;
+    fd = -1;
+    return f;
+  }
+};
+
+/// The fast way: reserve the output, copy the body in the kernel (a copier thread runs ahead
+/// chunk by chunk), warp it in place through memory-mapped windows unmapped chunk by chunk, so
+/// resident memory stays at a chunk. Returns false, having written nothing, where the filesystem
+/// cannot reserve space: a mapped write could then die of SIGBUS on a full disk.
+bool warpInPlace(MapJob& job, const std::string& in, const std::string& out) {
+  const PcdHeader& h = job.header();
+  const std::string text = binaryPcdHeader(job.fields(), h.point_step,
+                                           static_cast<std::uint32_t>(h.width),
+                                           static_cast<std::uint32_t>(h.height));
+  const std::size_t step = h.point_step;
+  const std::size_t body = h.points * step;
+  AtomicFile file(out);
+  FdGuard fd{::open(file.tempPath().c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0644)};
+  if (fd.fd < 0) throw Error(out + ": cannot open for writing: " + std::strerror(errno));
+  const int rc = ::posix_fallocate(fd.fd, 0, static_cast<off_t>(text.size() + body));
+  if (rc == EOPNOTSUPP || rc == EINVAL || rc == ENOSYS) return false;  // nothing written yet
+  if (rc != 0) {
+    throw Error(out + ": cannot reserve " + std::to_string(text.size() + body) + " bytes: " +
+                std::strerror(rc));
+  }
+  if (::pwrite(fd.fd, text.data(), text.size(), 0) != static_cast<ssize_t>(text.size())) {
+    throw Error(out + ": write failed: " + std::strerror(errno));
+  }
+  FdGuard in_fd{::open(in.c_str(), O_RDONLY | O_CLOEXEC)};
+  if (in_fd.fd < 0) throw Error(in + ": cannot open: " + std::strerror(errno));
+
+  const std::size_t chunk = job.chunk();
+  std::mutex m;
+  std::condition_variable cv;
+  std::size_t copied = 0;  // points copied so far (guarded by m)
+  std::exception_ptr copy_error;
+  std::atomic<bool> stop{false};
+  std::thread copier([&] {
+    try {
+      for (std::size_t first = 0; first < h.points && !stop; first += chunk) {
+        const std::size_t n = std::min(chunk, h.points - first);
+        const auto t0 = Clock::now();
+        copyRange(in_fd.fd, static_cast<off_t>(h.data_offset + first * step), fd.fd,
+                  static_cast<off_t>(text.size() + first * step), n * step, out);
+        job.info().read_seconds += since(t0);
+        std::lock_guard<std::mutex> lock(m);
+        copied = first + n;
+        cv.notify_all();
+      }
+    } catch (...) {
+      std::lock_guard<std::mutex> lock(m);
+      copy_error = std::current_exception();
+      cv.notify_all();
+    }
+  });
+  struct Joiner {
+    std::thread& t;
+    std::atomic<bool>& stop;
+    ~Joiner() {
+      stop = true;
+      if (t.joinable()) t.join();
+    }
+  } joiner{copier, stop};
+  job.prepare();  // builds the location grid while the copier runs
+
+  const auto page = static_cast<std::size_t>(::sysconf(_SC_PAGESIZE));
+  for (std::size_t first = 0; first < h.points; first += chunk) {
+    const std::size_t n = std::min(chunk, h.points - first);
+    {
+      std::unique_lock<std::mutex> lock(m);
+      cv.wait(lock, [&] { return copied >= first + n || copy_error; });
+      if (copy_error) std::rethrow_exception(copy_error);
+    }
+    const std::size_t offset = text.size() + first * step;
+    const std::size_t start = offset / page * page;
+    const std::size_t length = offset + n * step - start;
+    void* base = ::mmap(nullptr, length, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_POPULATE, fd.fd,
+                        static_cast<off_t>(start));
+    if (base == MAP_FAILED) throw Error(out + ": cannot map the output: " + std::strerror(errno));
+    struct Unmap {
+      void* p;
+      std::size_t len;
+      ~Unmap() { ::munmap(p, len); }
+    } unmap{base, length};
+    job.warp(static_cast<std::uint8_t*>(base) + (offset - start), first, n);
+  }
+  stop = true;
+  copier.join();
+  if (copy_error) std::rethrow_exception(copy_error);
+  const auto t0 = Clock::now();
+  if (::close(fd.release()) != 0) throw Error(out + ": write failed: " + std::strerror(errno));
+  file.commit();
+  job.info().write_seconds += since(t0);
+  return true;
+}
+
+/// The portable way: read, warp and write chunk by chunk through three buffers; chunk i+1 is
+/// read and chunk i-1 written while chunk i is warped.
+void warpPipeline(MapJob& job, const std::string& out) {
+  job.prepare();
+  const PcdHeader& h = job.header();
+  PcdChunkWriter writer(out, job.fields(), h.point_step, static_cast<std::uint32_t>(h.width),
+                        static_cast<std::uint32_t>(h.height));
+  const std::size_t chunk = job.chunk();
+  std::array<std::vector<std::uint8_t>, 3> buffers;
+  for (auto& b : buffers) b.resize(std::min(chunk, std::max<std::size_t>(1, h.points)) * h.point_step);
+  auto readInto = [&](std::size_t slot) {
+    const auto t0 = Clock::now();
+    const std::size_t n = job.reader().read(buffers[slot].data(), chunk);
+    job.info().read_seconds += since(t0);
+    return n;
+  };
+  std::future<std::size_t> next = std::async(std::launch::async, readInto, 0);
+  std::future<void> writing;
+  std::size_t first = 0;
+  for (std::size_t i = 0;; ++i) {
+    const std::size_t n = next.get();
+    if (n == 0) break;
+    std::uint8_t* data = buffers[i % 3].data();
+    // Chunk i+1 reuses the buffer of chunk i-2, whose write ended before chunk i-1's began.
+    next = std::async(std::launch::async, readInto, (i + 1) % 3);
+    job.warp(data, first, n);
+    if (writing.valid()) writing.get();
+    writing = std::async(std::launch::async, [&writer, &job, data, n] {
+      const auto t0 = Clock::now();
+      writer.write(data, n);
+      job.info().write_seconds += since(t0);
+    });
+    first += n;
+  }
+  if (writing.valid()) writing.get();
+  const auto t0 = Clock::now();
+  writer.commit();
+  job.info().write_seconds += since(t0);
+}
+
+}  // namespace
+
+void warpPcdFile(const std::string& in, const std::string& out, const RubberSheet& sheet,
+                 const MapStreamOptions& options, MapInfo& info) {
+  MapJob job(in, sheet, options, info);
+  if (!options.in_place || !warpInPlace(job, in, out)) warpPipeline(job, out);
+  job.finish();
+}
+
+}  // namespace flexcloud

@@ -1,0 +1,24 @@
+#include "flexcloud/io/memory.h"
+
+#include <fstream>
+#include <string>
+
+namespace flexcloud {
+
+double peakMemoryMb() {
+  // VmHWM belongs to this program's address space: unlike getrusage's ru_maxrss it does not
+  // carry over the pages of a large parent that started us.
+  std::ifstream status("/proc/self/status");
+  std::string key;
+  while (status >> key) {
+    if (key == "VmHWM:") {
+      double kb = 0.0;
+      status >> kb;
+      return kb / 1024.0;
+    }
+    std::getline(status, key);
+  }
+  return 0.0;
+}
+
+}  // namespace flexcloud

@@ -1,0 +1,139 @@
+// The fast warp (grid, candidates, previous-point check, streaming) against the reference: the
+// tetrahedron CGAL's own point location finds, on sheets from simulated drives.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <random>
+
+#include "flexcloud/cloud_warp.h"
+#include "flexcloud/georeference.h"
+#include "flexcloud/io/map_stream.h"
+#include "flexcloud/io/pcd_io.h"
+#include "flexcloud/sim/sim_cloud.h"
+
+namespace flexcloud {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Case {
+  sim::SimDrive drive;
+  GeoreferenceResult result;
+};
+
+Case makeCase(int control_points, std::size_t map_points) {
+  sim::SimParams sp;
+  sp.seed = 11;
+  sp.map_points = map_points;
+  Case c{sim::simulateDrive(sp), {}};
+  DriveInput in;
+  in.fixes = c.drive.fixes;
+  in.poses = c.drive.slam;
+  Params p;
+  p.control_points = control_points;
+  c.result = georeference(in, p);
+  return c;
+}
+
+/// A float64 cloud of the given map-frame points (x y z, then a tag field).
+pcl::PCLPointCloud2 doubleCloud(const std::vector<Eigen::Vector3d>& pts) {
+  pcl::PCLPointCloud2 c;
+  for (int a = 0; a < 3; ++a) {
+    pcl::PCLPointField f;
+    f.name = std::string(1, "xyz"[a]);
+    f.offset = 8 * a;
+    f.datatype = pcl::PCLPointField::FLOAT64;
+    f.count = 1;
+    c.fields.push_back(f);
+  }
+  c.point_step = 24;
+  c.width = static_cast<std::uint32_t>(pts.size());
+  c.height = 1;
+  c.row_step = c.point_step * c.width;
+  c.data.resize(c.row_step);
+  const XyzLayout l = XyzLayout::of(c, "probe");
+  for (std::size_t i = 0; i < pts.size(); ++i) l.set(c.data.data() + i * 24, pts[i]);
+  return c;
+}
+
+TEST(WarpEquivalence, FastPathMatchesCgalOnMapFacesEdgesVerticesAndOutside) {
+  for (int cps : {200, 2000}) {
+    const Case c = makeCase(cps, 100000);
+    const RubberSheet& sheet = *c.result.sheet;
+    const Eigen::Isometry3d to_map = c.result.T_enu_map.inverse();  // sources are in the aligned frame
+    std::vector<Eigen::Vector3d> probes = c.drive.map.slam;         // the map, in scan order
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    for (const auto& t : sheet.tetrahedra()) {
+      const auto& s = sheet.sources();
+      const Eigen::Vector3d a = s[t[0]], b = s[t[1]], d = s[t[2]];
+      probes.push_back(to_map * a);                                   // a vertex
+      probes.push_back(to_map * (0.5 * (a + b)));                     // an edge midpoint
+      const double x = 0.5 * u(rng), y = 0.5 * u(rng);
+      probes.push_back(to_map * (a + x * (b - a) + y * (d - a)));     // a point on a face
+    }
+    Eigen::Vector3d lo = c.result.cuboid_enu[0], hi = c.result.cuboid_enu[7];
+    for (int i = 0; i < 20000; ++i) {  // anywhere in and around the cuboid
+      const Eigen::Vector3d f(u(rng) * 1.4 - 0.2, u(rng) * 1.4 - 0.2, u(rng) * 1.4 - 0.2);
+      probes.push_back(to_map * (lo + f.cwiseProduct(hi - lo)));
+    }
+    pcl::PCLPointCloud2 cloud = doubleCloud(probes);
+    const WarpStats stats = warpCloud(cloud, sheet, 2);
+    EXPECT_GT(stats.outside, 1000u) << "the probes should leave the cuboid";
+    const XyzLayout l = XyzLayout::of(cloud, "probe");
+    double worst = 0.0;
+    std::size_t outside = 0;
+    for (std::size_t i = 0; i < probes.size(); ++i) {
+      bool out = false;
+      const Eigen::Vector3d want = sheet.transformReference(probes[i], &out);
+      outside += out ? 1 : 0;
+      worst = std::max(worst, (l.get(cloud.data.data() + i * 24) - want).norm());
+    }
+    EXPECT_LT(worst, 1e-6) << cps << " control points";
+    // Points on the hull's faces may count as in or out; the two answers agree there.
+    EXPECT_NEAR(static_cast<double>(stats.outside), static_cast<double>(outside), 0.001 * probes.size());
+  }
+}
+
+TEST(WarpEquivalence, StreamedFileEqualsTheInMemoryWarp) {
+  const Case c = makeCase(200, 300000);
+  const std::string dir = ::testing::TempDir() + "stream_" + std::to_string(::getpid());
+  fs::create_directories(dir);
+  pcl::PCLPointCloud2 cloud = sim::slamCloud(c.drive.map);
+  writePcdBinary(dir + "/map.pcd", cloud);
+  writePcdBinary(dir + "/truth.pcd", sim::truthCloud(c.drive.map));
+  const pcl::PCLPointCloud2 original = cloud;
+  warpCloud(cloud, *c.result.sheet, 2);
+  for (bool in_place : {true, false}) {
+    MapStreamOptions o;
+    o.chunk_points = 70001;  // chunks that do not divide the cloud
+    o.in_place = in_place;
+    o.truth = dir + "/truth.pcd";
+    o.T_enu_map = c.result.T_enu_map;
+    MapInfo info;
+    const std::string out = dir + (in_place ? "/inplace.pcd" : "/pipeline.pcd");
+    warpPcdFile(dir + "/map.pcd", out, *c.result.sheet, o, info);
+    EXPECT_EQ(info.warp.points, 300000u);
+    const pcl::PCLPointCloud2 streamed = readPcd(out);
+    ASSERT_EQ(streamed.data.size(), cloud.data.size());
+    const XyzLayout a = XyzLayout::of(cloud, "memory"), b = XyzLayout::of(streamed, "stream");
+    double worst = 0.0;
+    for (std::size_t i = 0; i < a.points; ++i) {
+      worst = std::max(worst, (a.get(cloud.data.data() + i * a.point_step) -
+                               b.get(streamed.data.data() + i * b.point_step)).norm());
+      // every byte beyond x, y, z is the input's
+      EXPECT_EQ(std::memcmp(streamed.data.data() + i * b.point_step + 12,
+                            original.data.data() + i * a.point_step + 12, a.point_step - 12), 0);
+    }
+    EXPECT_LT(worst, 1e-4) << (in_place ? "in place" : "pipeline");  // float32 rounding at most
+    const ErrorStats direct = compareClouds(cloud, readPcd(dir + "/truth.pcd"),
+                                            [](const Eigen::Vector3d& p) { return p; });
+    EXPECT_NEAR(info.truth_rubbersheet.rmse, direct.rmse, 1e-6);
+    EXPECT_TRUE(info.has_truth);
+    EXPECT_GT(info.truth_aligned.rmse, 1.0);
+  }
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace flexcloud
