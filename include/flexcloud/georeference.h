@@ -32,6 +32,15 @@ struct StageSeconds {
   double trajectory_warp = 0.0;
 };
 
+/// Control points of different passes over the same place whose GNSS offset disagrees with
+/// their SLAM offset: the SLAM map holds that place twice (an unclosed loop). One warp of space
+/// cannot put both passes right.
+struct RevisitCheck {
+  std::size_t pairs = 0;        ///< pairs within kRevisitRadius of each other, different passes
+  std::size_t conflicting = 0;  ///< of those, disagreeing by more than 0.5 m + 3 sigma
+  double worst = 0.0;           ///< largest disagreement, metres
+};
+
 struct GeoreferenceResult {
   std::optional<Datum> datum;
   PreparedGnss gnss;
@@ -50,6 +59,7 @@ struct GeoreferenceResult {
   ErrorStats metrics_rubbersheet;
   std::vector<double> residual_aligned;  ///< per control point, metres
   std::vector<double> residual_rubbersheet;
+  RevisitCheck revisits;
   StageSeconds seconds;
 };
 

@@ -32,8 +32,8 @@ struct Params {
   double default_std_dev = 0.0;
   /// Seconds added to every GNSS stamp before matching (receiver clock offset to the SLAM clock).
   double gnss_time_offset = 0.0;
-  /// A fix that would need more than this speed (m/s) to reach from both its neighbours is an
-  /// outlier (a position jump) and is dropped.
+  /// A step between fixes that would need more than this speed (m/s) is a position jump of the
+  /// receiver; the fixes that jumped away (until it jumps back) are dropped.
   double max_gnss_speed = 150.0;
 
   // --- Keyframe interpolation -------------------------------------------------------------

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <unordered_map>
 #include <sstream>
 
 #include "flexcloud/interpolation.h"
@@ -146,6 +147,53 @@ void refineControlPoints(GeoreferenceResult& r, const Params& params, std::size_
 
 /// Warps a pose; `hint` carries the tetrahedron of the previous pose (a trajectory moves
 /// little from pose to pose, so the walk from there is short and no grid is needed).
+/// Finds pairs of control points on different passes over the same place (within 5 m of each
+/// other after the alignment, more than 50 m apart along the path) whose GNSS offset disagrees
+/// with their aligned SLAM offset.
+RevisitCheck checkRevisits(const GeoreferenceResult& r) {
+  constexpr double kRadius = 5.0, kOtherPass = 50.0;
+  RevisitCheck out;
+  const auto& cps = r.control_points.points;
+  const std::vector<double> arc = arcLength(positionsOf(r.poses));
+  struct Hash {
+    std::size_t operator()(const Eigen::Vector3i& k) const {
+      return (static_cast<std::size_t>(k.x()) * 73856093u) ^
+             (static_cast<std::size_t>(k.y()) * 19349663u) ^ (static_cast<std::size_t>(k.z()) * 83492791u);
+    }
+  };
+  struct Eq {
+    bool operator()(const Eigen::Vector3i& a, const Eigen::Vector3i& b) const { return a == b; }
+  };
+  std::unordered_map<Eigen::Vector3i, std::vector<std::size_t>, Hash, Eq> cells;
+  std::vector<Eigen::Vector3d> aligned(cps.size());
+  for (std::size_t i = 0; i < cps.size(); ++i) {
+    aligned[i] = r.T_enu_map * cps[i].source;
+    cells[(aligned[i] / kRadius).array().floor().cast<int>()].push_back(i);
+  }
+  for (std::size_t i = 0; i < cps.size(); ++i) {
+    const Eigen::Vector3i key = (aligned[i] / kRadius).array().floor().cast<int>();
+    for (int dx = -1; dx <= 1; ++dx) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dz = -1; dz <= 1; ++dz) {
+          const auto it = cells.find(key + Eigen::Vector3i(dx, dy, dz));
+          if (it == cells.end()) continue;
+          for (std::size_t j : it->second) {
+            if (j <= i || (aligned[j] - aligned[i]).norm() > kRadius ||
+                std::abs(arc[cps[j].pose_index] - arc[cps[i].pose_index]) < kOtherPass) {
+              continue;
+            }
+            ++out.pairs;
+            const double d = ((cps[j].target - cps[i].target) - (aligned[j] - aligned[i])).norm();
+            if (d > 0.5 + 3.0 * (cps[i].std_dev + cps[j].std_dev)) ++out.conflicting;
+            out.worst = std::max(out.worst, d);
+          }
+        }
+      }
+    }
+  }
+  return out;
+}
+
 Pose warpPose(const RubberSheet& sheet, const Pose& p, int& hint) {
   const auto loc = sheet.locateFrom(p.position, hint);
   if (!loc.outside) hint = loc.tet;
@@ -240,6 +288,7 @@ GeoreferenceResult georeference(const DriveInput& input, const Params& params) {
     r.residual_aligned.push_back((r.aligned[cp.pose_index].position - cp.target).norm());
     r.residual_rubbersheet.push_back((r.rubbersheet[cp.pose_index].position - cp.target).norm());
   }
+  r.revisits = checkRevisits(r);
   r.seconds.trajectory_warp = watch.lap();
   return r;
 }

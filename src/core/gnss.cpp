@@ -32,7 +32,60 @@ bool reachable(const GnssPoint& a, const GnssPoint& b, double max_speed) {
   return (b.position - a.position).norm() <= allowed;
 }
 
-/// Sorts by stamp, keeps the first of equal stamps, drops single-fix jumps.
+/// Drops the fixes of position jumps. The fixes are cut into segments wherever a step is
+/// unreachable; each cut shifts the following segments by the jump (the step minus the motion
+/// the previous step predicts). Segments whose shift agrees with the group of shifts that holds
+/// the most fixes are kept: a receiver that jumps away and back, for one fix or for minutes,
+/// loses exactly the fixes in between.
+void dropJumps(PreparedGnss& out, const Params& params) {
+  auto& pts = out.points;
+  if (pts.size() < 2) return;
+  std::vector<std::size_t> segment(pts.size(), 0);
+  std::vector<Eigen::Vector3d> shift{Eigen::Vector3d::Zero()};
+  std::vector<std::size_t> size{1};
+  for (std::size_t i = 1; i < pts.size(); ++i) {
+    if (reachable(pts[i - 1], pts[i], params.max_gnss_speed)) {
+      segment[i] = segment[i - 1];
+      ++size[segment[i]];
+      continue;
+    }
+    Eigen::Vector3d predicted = Eigen::Vector3d::Zero();
+    if (i >= 2 && segment[i - 2] == segment[i - 1]) {
+      const double dt = pts[i - 1].stamp - pts[i - 2].stamp;
+      if (dt > 0.0) {
+        predicted = (pts[i - 1].position - pts[i - 2].position) *
+                    ((pts[i].stamp - pts[i - 1].stamp) / dt);
+      }
+    }
+    shift.push_back(shift[segment[i - 1]] + (pts[i].position - pts[i - 1].position - predicted));
+    size.push_back(1);
+    segment[i] = shift.size() - 1;
+  }
+  if (shift.size() == 1) return;
+  // The shift every segment is measured against: the one whose agreeing segments hold the most
+  // fixes. Agreement: within the distance the vehicle could cover in a second, at least 10 m.
+  const double agree = std::max(10.0, params.max_gnss_speed * 0.1);
+  std::size_t best = 0, best_count = 0;
+  for (std::size_t k = 0; k < shift.size(); ++k) {
+    std::size_t count = 0;
+    for (std::size_t j = 0; j < shift.size(); ++j) {
+      if ((shift[j] - shift[k]).norm() <= agree) count += size[j];
+    }
+    if (count > best_count) best = k, best_count = count;
+  }
+  std::vector<GnssPoint> kept;
+  kept.reserve(best_count);
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    if ((shift[segment[i]] - shift[best]).norm() <= agree) {
+      kept.push_back(pts[i]);
+    } else {
+      ++out.dropped.outlier;
+    }
+  }
+  pts.swap(kept);
+}
+
+/// Sorts by stamp, keeps the first of equal stamps, drops jumps.
 void sortAndClean(PreparedGnss& out, const Params& params) {
   auto& pts = out.points;
   std::stable_sort(pts.begin(), pts.end(),
@@ -46,22 +99,8 @@ void sortAndClean(PreparedGnss& out, const Params& params) {
     }
     unique.push_back(p);
   }
-  // A fix that no vehicle could reach from either neighbour is a jump of the receiver.
-  std::vector<GnssPoint> kept;
-  kept.reserve(unique.size());
-  for (std::size_t i = 0; i < unique.size(); ++i) {
-    const bool has_prev = i > 0;
-    const bool has_next = i + 1 < unique.size();
-    const bool bad_prev = has_prev && !reachable(unique[i - 1], unique[i], params.max_gnss_speed);
-    const bool bad_next = has_next && !reachable(unique[i], unique[i + 1], params.max_gnss_speed);
-    const bool isolated = (has_prev || has_next) && (!has_prev || bad_prev) && (!has_next || bad_next);
-    if (isolated && (has_prev && has_next)) {
-      ++out.dropped.outlier;
-      continue;
-    }
-    kept.push_back(unique[i]);
-  }
-  pts.swap(kept);
+  pts.swap(unique);
+  dropJumps(out, params);
 }
 
 std::string dropSummary(const GnssDropCounts& d) {
@@ -118,6 +157,15 @@ PreparedGnss prepareGeodeticGnss(const std::vector<RawFix>& fixes, const Params&
   }
   sortAndClean(out, params);
   requireSome(out);
+  if (!params.hasDatum() && out.points.front().position.norm() > 0.0) {
+    // The earliest fix was dropped (a jump): the datum is the earliest fix that was kept.
+    const EnuFrame now(enu.toGeodetic(out.points.front().position));
+    for (auto& p : out.points) {
+      const Datum g = enu.toGeodetic(p.position);
+      p.position = now.toEnu(g.lat, g.lon, g.alt);
+    }
+    out.datum = now.datum();
+  }
   return out;
 }
 

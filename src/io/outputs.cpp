@@ -124,6 +124,9 @@ std::string reportJson(const GeoreferenceResult& r, const Params& params, const 
       {"points_non_finite", map ? map->warp.non_finite : 0},
   };
   j["counts"] = counts;
+  j["revisits"] = {{"pairs", r.revisits.pairs},
+                   {"conflicting", r.revisits.conflicting},
+                   {"worst_m", r.revisits.worst}};
   j["metrics"] = {{"aligned", stats(r.metrics_aligned)},
                   {"rubbersheet", stats(r.metrics_rubbersheet)}};
   if (map != nullptr && map->has_truth) {

@@ -114,7 +114,8 @@ BagSummary readBag(const std::string& path, const BagTopics& topics, DriveCollec
     throw Error(path + ": the bag has no index (cut short while recording?); run "
                        "'rosbag reindex " + path + "' first");
   } catch (const rosbag::BagException& e) {
-    throw Error(path + ": not a readable bag: " + e.what());
+    throw Error(path + ": not a readable bag (if it was cut short, 'rosbag reindex' may repair "
+                       "it): " + e.what());
   } catch (const ros::Exception& e) {
     throw Error(path + ": corrupt message data: " + e.what());
   }

@@ -341,7 +341,12 @@ flexcloud::Georeference::Response GeoreferenceNode::describe(const State& s) con
   res.message = "georeferenced " + std::to_string(r.poses.size()) + " poses with " +
                 std::to_string(r.control_points.points.size()) + " control points" +
                 (s.map ? " and a map of " + std::to_string(s.map_info.warp.points) + " points"
-                       : " (no map yet)");
+                       : " (no map yet)") +
+                (r.revisits.conflicting > 0
+                     ? "; warning: " + std::to_string(r.revisits.conflicting) +
+                           " control point pairs revisit places the SLAM map puts elsewhere on "
+                           "another pass: close those loops in the SLAM"
+                     : std::string());
   res.fixes_used = static_cast<std::uint32_t>(r.gnss.points.size());
   res.fixes_dropped = static_cast<std::uint32_t>(r.gnss.dropped.total());
   res.poses = static_cast<std::uint32_t>(r.poses.size());

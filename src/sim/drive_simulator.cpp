@@ -66,7 +66,7 @@ Route makeRoute(const SimParams& p, std::mt19937_64& rng) {
                             0.0);
         q.z() = 8.0 * std::sin(2 * kPi * 0.8 * u + f4) + 2.0 * std::sin(2 * kPi * 2.7 * u + f5);
       }
-      const double z = q.z();
+      const double z = q.z() * p.elevation;
       if (pass == 0) {
         q *= p.loop ? p.length / 6.0 : p.length;
       } else {
@@ -79,7 +79,8 @@ Route makeRoute(const SimParams& p, std::mt19937_64& rng) {
   return Route(pts);
 }
 
-/// Arc length along the route at time t (s), with the optional stop halfway.
+/// Arc length driven at time t (s), with the optional stop halfway; `length` is the whole
+/// drive (all laps).
 double arcAt(double t, const SimParams& p, double length) {
   const double t_stop = 0.5 * length / p.speed;
   if (t <= t_stop) return std::min(length, p.speed * t);
@@ -119,29 +120,49 @@ std::vector<Eigen::Isometry3d> integrateSlam(const std::vector<Eigen::Isometry3d
                             yaw_b * ds[k] + p.rotation_walk * sq * n01(rng));
     step[k].linear() = d.linear() * expSo3(w);
   }
-  auto integrate = [&]() {
-    std::vector<Eigen::Isometry3d> out(n, Eigen::Isometry3d::Identity());
-    for (std::size_t k = 0; k + 1 < n; ++k) out[k + 1] = out[k] * step[k];
-    return out;
+  std::vector<Eigen::Isometry3d> slam(n, Eigen::Isometry3d::Identity());
+  auto integrate = [&](std::size_t from, std::size_t to) {
+    for (std::size_t k = from; k < to; ++k) slam[k + 1] = slam[k] * step[k];
   };
-  std::vector<Eigen::Isometry3d> slam = integrate();
+  integrate(0, n - 1);
   if (!p.loop || n < 2) return slam;
   // Loop closure as a pose graph would do it: the rotation error at the end is spread over the
   // increments in proportion to their length, the trajectory re-integrated, and the remaining
-  // translation gap spread along the path.
-  const Eigen::Isometry3d expected = truth.front().inverse() * truth.back();
-  const double total = std::max(1e-9, arc.back() - arc.front());
+  // translation gap spread along the path. With close_each_lap, the SLAM also recognises every
+  // revisit: the map is consistent across laps, so the first lap is closed and every later lap
+  // carries the same distortion of each place (plus 2 cm of jitter); without it, only the very
+  // end is closed and the laps stay apart.
+  const double lap = (arc.back() - arc.front()) / p.laps;
+  const bool per_lap = p.close_each_lap && p.laps > 1;
+  std::size_t end = n - 1;
+  if (per_lap) {
+    end = static_cast<std::size_t>(std::lower_bound(arc.begin(), arc.end(), arc.front() + lap - 1e-6) -
+                                   arc.begin());
+    end = std::min(end, n - 1);
+  }
+  const Eigen::Isometry3d expected = truth.front().inverse() * truth[end];
+  const double total = std::max(1e-9, arc[end] - arc.front());
   for (int iter = 0; iter < 5; ++iter) {
-    const Eigen::AngleAxisd err(slam.back().linear().transpose() * expected.linear());
+    const Eigen::AngleAxisd err(slam[end].linear().transpose() * expected.linear());
     const Eigen::Vector3d w = err.angle() * err.axis();
-    for (std::size_t k = 0; k + 1 < n; ++k) {
+    for (std::size_t k = 0; k < end; ++k) {
       step[k].linear() = step[k].linear() * expSo3((ds[k] / total) * w);
     }
-    slam = integrate();
+    integrate(0, end);
   }
-  const Eigen::Vector3d gap = expected.translation() - slam.back().translation();
-  for (std::size_t k = 0; k < n; ++k) {
+  const Eigen::Vector3d gap = expected.translation() - slam[end].translation();
+  for (std::size_t k = 0; k <= end; ++k) {
     slam[k].translation() += ((arc[k] - arc.front()) / total) * gap;
+  }
+  if (per_lap) {
+    for (std::size_t k = end + 1; k < n; ++k) {
+      const double on_first = arc.front() + std::fmod(arc[k] - arc.front(), lap);
+      const auto j = std::min<std::size_t>(
+          static_cast<std::size_t>(std::lower_bound(arc.begin(), arc.begin() + static_cast<std::ptrdiff_t>(end) + 1, on_first) - arc.begin()),
+          end);
+      slam[k] = slam[j] * truth[j].inverse() * truth[k];  // the same distortion of the place
+      slam[k].translation() += 0.02 * Eigen::Vector3d(n01(rng), n01(rng), n01(rng));
+    }
   }
   return slam;
 }
@@ -206,8 +227,9 @@ void makeMap(const Route& route, const std::vector<double>& arc,
       label = 3;
     }
     const Eigen::Vector3d truth_pt = route.poseAt(s) * local;
-    // Seen from a scan up to 10 m before or after the point.
-    const double s_obs = std::clamp(s + (u01(rng) - 0.5) * 20.0, arc.front(), arc.back());
+    // Seen from a scan up to 10 m before or after the point, on one of the laps.
+    const double on_lap = std::floor(u01(rng) * p.laps) * length;
+    const double s_obs = std::clamp(on_lap + s + (u01(rng) - 0.5) * 20.0, arc.front(), arc.back());
     const auto it = std::lower_bound(arc.begin(), arc.end(), s_obs);
     const std::size_t k = std::min<std::size_t>(static_cast<std::size_t>(it - arc.begin()),
                                                 arc.size() - 1);
@@ -247,6 +269,9 @@ std::string validate(const SimParams& p) {
   };
   req(std::isfinite(p.length) && p.length >= 100.0 && p.length <= 1e6,
       "length must be in [100, 1e6] m");
+  req(p.laps >= 1 && p.laps <= 100 && (p.loop || p.laps == 1), "laps must be 1..100, and 1 on an open route");
+  req(std::isfinite(p.elevation) && p.elevation >= 0.0 && p.elevation <= 10.0,
+      "elevation must be in [0, 10]");
   req(std::isfinite(p.speed) && p.speed > 0.1 && p.speed <= 100.0, "speed must be in (0.1, 100] m/s");
   req(std::isfinite(p.stop_duration) && p.stop_duration >= 0.0 && p.stop_duration <= 36000.0,
       "stop_duration must be in [0, 36000] s");
@@ -269,8 +294,11 @@ SimDrive simulateDrive(const SimParams& p) {
   std::mt19937_64 rng(p.seed);
   std::normal_distribution<double> n01(0.0, 1.0);
   const Route route = makeRoute(p, rng);
-  const double length = route.length();
+  const double lap = route.length();
+  const double length = lap * p.laps;
   const double duration = length / p.speed + p.stop_duration;
+  // The pose at a driven arc length: laps go round the same loop.
+  auto poseAt = [&](double s) { return route.poseAt(p.laps > 1 ? std::fmod(s, lap) : s); };
 
   SimDrive d;
   d.params = p;
@@ -280,7 +308,7 @@ SimDrive simulateDrive(const SimParams& p) {
   std::vector<Eigen::Isometry3d> truth(n_odom);
   for (std::size_t k = 0; k < n_odom; ++k) {
     arc[k] = arcAt(static_cast<double>(k) / p.odom_rate, p, length);
-    truth[k] = route.poseAt(arc[k]);
+    truth[k] = poseAt(arc[k]);
   }
   const std::vector<Eigen::Isometry3d> slam = integrateSlam(truth, arc, p, rng);
   for (std::size_t k = 0; k < n_odom; ++k) {
@@ -300,7 +328,7 @@ SimDrive simulateDrive(const SimParams& p) {
                                          : Eigen::Vector3d(p.gnss_noise_h, p.gnss_noise_h,
                                                            p.gnss_noise_v);
     const Eigen::Vector3d noise(sigma.x() * n01(rng), sigma.y() * n01(rng), sigma.z() * n01(rng));
-    const Eigen::Vector3d pos = route.poseAt(arcAt(t, p, length)).translation() + noise;
+    const Eigen::Vector3d pos = poseAt(arcAt(t, p, length)).translation() + noise;
     RawFix f;
     f.fix.stamp = p.start_stamp + t + p.clock_offset;
     f.has_fix = !inAny(p.no_fix, t);
@@ -312,7 +340,7 @@ SimDrive simulateDrive(const SimParams& p) {
                            : Eigen::Vector3d(std_h, std_h, std_v);
     d.fixes.push_back(f);
   }
-  makeMap(route, arc, truth, slam, p, rng, d.map);
+  makeMap(route, arc, truth, slam, p, rng, d.map);  // points of one lap, seen on any lap
   return d;
 }
 

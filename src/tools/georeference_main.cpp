@@ -211,6 +211,14 @@ void printSummary(const GeoreferenceResult& r, const MapInfo* map, const std::st
       std::cout << line;
     }
   }
+  if (r.revisits.conflicting > 0) {
+    std::snprintf(line, sizeof(line),
+                  "  warning        %zu control point pairs revisit places that the SLAM map puts "
+                  "elsewhere on another pass (up to %.2f m): close those loops in the SLAM, no warp "
+                  "can merge ghosted passes\n",
+                  r.revisits.conflicting, r.revisits.worst);
+    std::cout << line;
+  }
   std::cout << "  outputs in     " << out << "\n";
 }
 

@@ -30,7 +30,9 @@ constexpr const char* kUsage = R"(usage: simulate_drive [options]
   --out DIR               output folder (default: sim_out)
   --seed N                random seed (default 1)
   --open                  open A-to-B route without loop closure (default: loop, loop-closed)
-  --length M              route length (default 5000 m)
+  --length M              route length, one lap (default 5000 m)
+  --laps N                laps of the loop (default 1; loop closure only at the very end)
+  --elevation F           scale of the hills (default 1; 0: a level road)
   --speed V               m/s (default 12)
   --stop S                stand still S seconds halfway
   --map-points N          map points (default 200000)
@@ -71,6 +73,10 @@ Options parse(int argc, char** argv) {
       s.loop = false;
     } else if (f == "--length") {
       s.length = a.number(f);
+    } else if (f == "--laps") {
+      s.laps = static_cast<int>(a.integer(f));
+    } else if (f == "--elevation") {
+      s.elevation = a.number(f);
     } else if (f == "--speed") {
       s.speed = a.number(f);
     } else if (f == "--stop") {

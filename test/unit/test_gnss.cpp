@@ -55,6 +55,35 @@ TEST(Gnss, EveryDroppedFixIsCountedByReason) {
   EXPECT_EQ(g.points.size() + g.dropped.total(), g.received);
 }
 
+TEST(Gnss, ASustainedJumpAwayAndBackLosesExactlyTheFixesInBetween) {
+  std::vector<RawFix> v;
+  for (int k = 0; k < 200; ++k) v.push_back(fix(100.0 + 0.2 * k, 48.0 + 0.18e-4 * k, 11.0));
+  for (int k = 60; k < 90; ++k) v[k].fix.lon += 0.005;  // 6 s 370 m east, then back
+  for (int k = 150; k < 151; ++k) v[k].fix.lat -= 0.004;  // and one fix 440 m south
+  const PreparedGnss g = prepareGeodeticGnss(v, Params{});
+  EXPECT_EQ(g.dropped.outlier, 31u);
+  EXPECT_EQ(g.points.size(), 169u);
+  for (const auto& p : g.points) EXPECT_LT(std::abs(p.position.x()), 1.0);  // none of the east ones
+}
+
+TEST(Gnss, AJumpAtTheStartIsTheMinorityNotTheReference) {
+  std::vector<RawFix> v;
+  for (int k = 0; k < 100; ++k) v.push_back(fix(100.0 + 0.2 * k, 48.0 + 0.18e-4 * k, 11.0));
+  for (int k = 0; k < 10; ++k) v[k].fix.lon += 0.01;  // the first 2 s are 740 m off
+  Params p;
+  p.datum_lat = 48.0;
+  p.datum_lon = 11.0;
+  p.datum_alt = 0.0;
+  const PreparedGnss g = prepareGeodeticGnss(v, p);
+  EXPECT_EQ(g.dropped.outlier, 10u);
+  EXPECT_NEAR(g.points.front().stamp, 102.0, 1e-9);
+  // Without a given datum, the datum is the earliest fix that was kept, not a jumped one.
+  const PreparedGnss h = prepareGeodeticGnss(v, Params{});
+  EXPECT_NEAR(h.datum->lon, 11.0, 1e-12);
+  EXPECT_NEAR(h.datum->lat, 48.0 + 0.18e-4 * 10, 1e-12);
+  EXPECT_LT(h.points.front().position.norm(), 1e-6);
+}
+
 TEST(Gnss, DefaultStdDevKeepsFixesWithUnknownCovariance) {
   auto v = drive();
   for (auto& f : v) f.fix.std_enu.setConstant(std::nan(""));

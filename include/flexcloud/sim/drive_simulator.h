@@ -18,7 +18,14 @@ struct SimParams {
   /// Loop route whose SLAM is loop-closed (end error spread along the path), or an open
   /// A-to-B route whose drift is left as it accumulated.
   bool loop = true;
-  double length = 5000.0;  ///< m
+  double length = 5000.0;  ///< m, one lap
+  /// Laps of the loop driven one after the other.
+  int laps = 1;
+  /// Close the loop at the end of every lap, as SLAM does when it recognises the place; false:
+  /// only at the very end, so the laps stay apart in the map (ghost walls).
+  bool close_each_lap = true;
+  /// Scale of the route's hills; 0: a perfectly level road.
+  double elevation = 1.0;
   double speed = 12.0;     ///< m/s
   double stop_duration = 0.0;  ///< s standing still halfway along the route
   double odom_rate = 10.0;     ///< Hz

@@ -1,0 +1,234 @@
+// Messy drives: each case ends in a correct result with what was skipped counted, or in one
+// clear error. Never a crash, a hang, a NaN or a point lost.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <random>
+
+#include "flexcloud/cloud_warp.h"
+#include "flexcloud/georeference.h"
+#include "flexcloud/sim/sim_cloud.h"
+
+namespace flexcloud {
+namespace {
+
+sim::SimParams small(std::uint64_t seed = 21) {
+  sim::SimParams sp;
+  sp.seed = seed;
+  sp.map_points = 30000;
+  return sp;
+}
+
+DriveInput inputOf(const sim::SimDrive& d) {
+  DriveInput in;
+  in.fixes = d.fixes;
+  in.poses = d.slam;
+  return in;
+}
+
+Params atSimDatum(const sim::SimDrive& d) {
+  Params p;
+  p.datum_lat = d.datum.lat;
+  p.datum_lon = d.datum.lon;
+  p.datum_alt = d.datum.alt;
+  return p;
+}
+
+/// Warps the drive's map and returns its error against the truth; every point must be kept,
+/// finite where it was finite.
+ErrorStats mapError(const sim::SimDrive& d, const GeoreferenceResult& r, WarpStats* stats = nullptr) {
+  pcl::PCLPointCloud2 map = sim::slamCloud(d.map);
+  const WarpStats s = warpCloud(map, *r.sheet, 2);
+  EXPECT_EQ(s.points, d.map.slam.size());
+  EXPECT_EQ(s.non_finite, 0u);
+  if (stats) *stats = s;
+  return compareClouds(map, sim::truthCloud(d.map), [](const Eigen::Vector3d& x) { return x; });
+}
+
+std::string errorOf(const DriveInput& in, const Params& p) {
+  try {
+    georeference(in, p);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(BadInput, GnssJumpOfHundredsOfMetresForTwentySeconds) {
+  const sim::SimDrive d = sim::simulateDrive(small());
+  DriveInput in = inputOf(d);
+  for (auto& f : in.fixes) {
+    const double t = f.fix.stamp - d.params.start_stamp;
+    if (t >= 100.0 && t < 120.0) f.fix.lat += 0.003;  // 333 m north
+  }
+  const GeoreferenceResult r = georeference(in, atSimDatum(d));
+  EXPECT_EQ(r.gnss.dropped.outlier, 100u);  // 20 s at 5 Hz
+  EXPECT_LE(mapError(d, r).rmse, 0.25);
+}
+
+TEST(BadInput, DuplicateAndOutOfOrderStampsGiveTheCleanResult) {
+  const sim::SimDrive d = sim::simulateDrive(small());
+  const GeoreferenceResult clean = georeference(inputOf(d), Params{});
+  DriveInput messy = inputOf(d);
+  std::mt19937 rng(1);
+  std::shuffle(messy.poses.begin(), messy.poses.end(), rng);
+  std::shuffle(messy.fixes.begin(), messy.fixes.end(), rng);
+  for (int k = 0; k < 50; ++k) messy.poses.push_back(messy.poses[static_cast<std::size_t>(k)]);
+  for (int k = 0; k < 30; ++k) messy.fixes.push_back(messy.fixes[static_cast<std::size_t>(k)]);
+  const GeoreferenceResult r = georeference(messy, Params{});
+  EXPECT_EQ(r.pose_counts.duplicate, 50u);
+  EXPECT_GT(r.pose_counts.reordered, 1000u);
+  EXPECT_EQ(r.gnss.dropped.duplicate, 30u);
+  EXPECT_LT((r.T_enu_map.matrix() - clean.T_enu_map.matrix()).norm(), 1e-9);
+  EXPECT_NEAR(r.metrics_rubbersheet.mae, clean.metrics_rubbersheet.mae, 1e-9);
+}
+
+TEST(BadInput, BrokenQuaternionsAreCountedNotFatal) {
+  const sim::SimDrive d = sim::simulateDrive(small());
+  DriveInput in = inputOf(d);
+  for (std::size_t i = 0; i < in.poses.size(); i += 100) in.poses[i].orientation.coeffs() *= 3.0;
+  for (std::size_t i = 50; i < in.poses.size(); i += 100) {
+    in.poses[i].orientation.coeffs() << std::nan(""), 0, 0, 1;
+  }
+  in.poses[7].orientation.coeffs().setZero();
+  const GeoreferenceResult r = georeference(in, Params{});
+  EXPECT_EQ(r.pose_counts.normalised, 42u);
+  EXPECT_EQ(r.pose_counts.invalid, 43u);  // 42 NaN and one zero quaternion
+  for (const auto& p : r.rubbersheet) EXPECT_NEAR(p.orientation.norm(), 1.0, 1e-9);
+}
+
+TEST(BadInput, NoTimeOverlapSaysSo) {
+  const sim::SimDrive d = sim::simulateDrive(small());
+  DriveInput in = inputOf(d);
+  for (auto& f : in.fixes) f.fix.stamp += 10000.0;
+  EXPECT_NE(errorOf(in, Params{}).find("no time overlap: GNSS spans"), std::string::npos);
+}
+
+TEST(BadInput, PartialOverlapWarpsEverythingAndCountsTheUnmatched) {
+  const sim::SimDrive d = sim::simulateDrive(small());
+  DriveInput in = inputOf(d);
+  const double t0 = d.params.start_stamp;
+  in.fixes.erase(std::remove_if(in.fixes.begin(), in.fixes.end(),
+                                [&](const RawFix& f) {
+                                  return f.fix.stamp < t0 + 100.0 || f.fix.stamp > t0 + 300.0;
+                                }),
+                 in.fixes.end());
+  const GeoreferenceResult r = georeference(in, atSimDatum(d));
+  EXPECT_NEAR(static_cast<double>(r.poses_matched), 2001.0, 2.0);  // 200 s at 10 Hz
+  EXPECT_EQ(r.rubbersheet.size(), d.slam.size());
+  WarpStats s;
+  const ErrorStats e = mapError(d, r, &s);
+  EXPECT_EQ(s.outside, 0u);  // the cuboid encloses the whole trajectory, matched or not
+  EXPECT_TRUE(std::isfinite(e.rmse));
+}
+
+TEST(BadInput, PerfectlyFlatTrajectoryAndGnss) {
+  sim::SimParams sp = small();
+  sp.elevation = 0.0;
+  sp.gnss_noise_v = 0.0;
+  sp.pitch_bias = 0.0;
+  sim::SimDrive d = sim::simulateDrive(sp);
+  DriveInput in = inputOf(d);
+  for (auto& p : in.poses) p.position.z() = 0.0;  // every z equal
+  // The map's points keep their SLAM heights relative to the (now level) trajectory.
+  for (std::size_t i = 0; i < d.map.slam.size(); ++i) d.map.slam[i].z() = d.map.slam[i].z();
+  const GeoreferenceResult r = georeference(in, atSimDatum(d));
+  EXPECT_EQ(r.control_points.points.size(), 200u);
+  EXPECT_GT(r.sheet->numTetrahedra(), 200u);
+  WarpStats s;
+  mapError(d, r, &s);  // every point warped, none lost, none NaN
+  EXPECT_EQ(s.outside, 0u);
+  EXPECT_LT(r.metrics_rubbersheet.mae, 0.1);
+  for (const auto& p : r.rubbersheet) EXPECT_TRUE(p.position.allFinite());
+}
+
+TEST(BadInput, FewerThanFourPosesIsAClearError) {
+  const sim::SimDrive d = sim::simulateDrive(small());
+  DriveInput in = inputOf(d);
+  in.poses.resize(3);
+  const std::string e = errorOf(in, Params{});
+  EXPECT_NE(e.find("at least 4 are needed"), std::string::npos) << e;
+}
+
+TEST(BadInput, MoreControlPointsAskedThanPoses) {
+  sim::SimParams sp = small();
+  sp.length = 400.0;  // 334 poses
+  const sim::SimDrive d = sim::simulateDrive(sp);
+  Params p = atSimDatum(d);
+  p.control_points = 10000;
+  const GeoreferenceResult r = georeference(inputOf(d), p);
+  EXPECT_LE(r.control_points.points.size(), d.slam.size());
+  EXPECT_GT(r.control_points.points.size(), 100u);
+  EXPECT_LT(r.metrics_rubbersheet.mae, 0.05);
+  EXPECT_TRUE(std::isfinite(mapError(d, r).rmse));
+}
+
+TEST(BadInput, EveryFixAboveTheThresholdNamesTheThreshold) {
+  sim::SimParams sp = small();
+  sp.reported_std_h = sp.reported_std_v = 5.0;
+  const sim::SimDrive d = sim::simulateDrive(sp);
+  const std::string e = errorOf(inputOf(d), Params{});
+  EXPECT_NE(e.find("std-dev threshold of 0.1"), std::string::npos) << e;
+}
+
+TEST(BadInput, NoFixAtAll) {
+  const sim::SimDrive d = sim::simulateDrive(small());
+  DriveInput in = inputOf(d);
+  in.fixes.clear();
+  EXPECT_NE(errorOf(in, Params{}).find("none of the 0 fixes"), std::string::npos);
+  for (auto& f : in.fixes) f.has_fix = false;
+}
+
+TEST(BadInput, LapsRevisitTheSamePlace) {
+  sim::SimParams sp = small();
+  sp.laps = 3;
+  sp.length = 2000.0;
+  const sim::SimDrive d = sim::simulateDrive(sp);
+  const GeoreferenceResult r = georeference(inputOf(d), atSimDatum(d));
+  const ErrorStats e = mapError(d, r);
+  std::printf("3 loop-closed laps: map RMSE %.3f m, MAX %.3f m; %zu revisit pairs, %zu conflicting\n",
+              e.rmse, e.max, r.revisits.pairs, r.revisits.conflicting);
+  EXPECT_LE(e.rmse, 0.25);
+  EXPECT_LT(r.metrics_rubbersheet.max, 0.3);
+  EXPECT_GT(r.revisits.pairs, 100u);
+  EXPECT_EQ(r.revisits.conflicting, 0u);
+}
+
+TEST(BadInput, LapsTheSlamNeverClosedAreFlagged) {
+  // Without loop closure between laps the map holds every wall once per lap, metres apart, each
+  // needing another correction: one warp of space cannot serve them all. The result stays
+  // finite, every point is kept, and the conflict is reported so the user closes the loops.
+  sim::SimParams sp = small();
+  sp.laps = 3;
+  sp.length = 2000.0;
+  sp.close_each_lap = false;
+  const sim::SimDrive d = sim::simulateDrive(sp);
+  const GeoreferenceResult r = georeference(inputOf(d), atSimDatum(d));
+  pcl::PCLPointCloud2 map = sim::slamCloud(d.map);
+  const ErrorStats rigid = compareClouds(map, sim::truthCloud(d.map), [&](const Eigen::Vector3d& x) {
+    return Eigen::Vector3d(r.T_enu_map * x);
+  });
+  const ErrorStats e = mapError(d, r);
+  std::printf("3 unclosed laps: map RMSE %.3f m (rigid only %.3f m); %zu of %zu revisit pairs "
+              "conflict, by up to %.2f m\n",
+              e.rmse, rigid.rmse, r.revisits.conflicting, r.revisits.pairs, r.revisits.worst);
+  EXPECT_TRUE(std::isfinite(e.rmse));
+  EXPECT_GT(r.revisits.conflicting, 20u);
+  EXPECT_GT(r.revisits.worst, 1.0);
+}
+
+TEST(BadInput, ALongOutageWithHighStdDev) {
+  sim::SimParams sp = small();
+  sp.outages = {{50.0, 170.0}};  // two minutes, 1.4 km of path
+  const sim::SimDrive d = sim::simulateDrive(sp);
+  const GeoreferenceResult r = georeference(inputOf(d), atSimDatum(d));
+  for (const auto& cp : r.control_points.points) {
+    const double t = cp.stamp - sp.start_stamp;
+    EXPECT_FALSE(t > 50.5 && t < 169.5);
+  }
+  EXPECT_GT(r.control_points.skipped, 0u);
+  EXPECT_TRUE(std::isfinite(mapError(d, r).rmse));
+}
+
+}  // namespace
+}  // namespace flexcloud
