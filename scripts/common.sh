@@ -9,8 +9,17 @@ export FLEXCLOUD_ROOT FLEXCLOUD_WS
 
 log() { printf '[flexcloud] %s\n' "$*" >&2; }
 
+# catkin caches how its setup script changes the environment at configure time; configured in a
+# shell that already sourced a setup file, the cache comes out empty and later runs from a clean
+# shell cannot find the package. The scripts therefore configure without any ROS environment.
+clean_ros_env() {
+  unset ROS_PACKAGE_PATH ROS_DISTRO ROS_ETC_DIR ROS_PYTHON_VERSION ROS_VERSION ROS_ROOT \
+        CMAKE_PREFIX_PATH PKG_CONFIG_PATH
+}
+
 # Makes the workspace (src/flexcloud -> the repository) and runs catkin_make in it.
 build_workspace() {
+  clean_ros_env
   mkdir -p "${FLEXCLOUD_WS}/src"
   if [ ! -e "${FLEXCLOUD_WS}/src/flexcloud" ]; then
     ln -s "${FLEXCLOUD_ROOT}" "${FLEXCLOUD_WS}/src/flexcloud"

@@ -15,8 +15,10 @@ results="${FLEXCLOUD_WS}/build/test_results"
 rm -rf "${results}"
 run_log="${FLEXCLOUD_WS}/run_tests.log"
 log "running the tests (log: ${run_log})"
-# catkin_make run_tests exits 0 even when tests fail: the result files decide.
-(cd "${FLEXCLOUD_WS}" && catkin_make run_tests -j"$(nproc)" -DCMAKE_BUILD_TYPE="${FLEXCLOUD_BUILD_TYPE}" \
-    -DPYTHON_EXECUTABLE=/usr/bin/python3) > "${run_log}" 2>&1
+# catkin_make run_tests exits 0 even when tests fail: the result files decide. It runs inside
+# the workspace's environment, so rostest finds the package whatever the configure-time cache.
+(cd "${FLEXCLOUD_WS}" && in_workspace catkin_make run_tests -j"$(nproc)" \
+    -DCMAKE_BUILD_TYPE="${FLEXCLOUD_BUILD_TYPE}" -DPYTHON_EXECUTABLE=/usr/bin/python3) \
+    > "${run_log}" 2>&1
 grep -E "^(loop|open|a2rl|outage)" "${run_log}" >&2 || true
 python3 "${FLEXCLOUD_ROOT}/scripts/count_results.py" "${results}"

@@ -19,9 +19,9 @@ std::uint8_t pclType(char type, std::size_t size) {
     case 'F':
       return size == 8 ? F::FLOAT64 : F::FLOAT32;
     case 'I':
-      return size == 1 ? F::INT8 : size == 2 ? F::INT16 : F::INT32;
+      return size == 1 ? F::INT8 : size == 2 ? F::INT16 : size == 4 ? F::INT32 : F::INT64;
     default:
-      return size == 1 ? F::UINT8 : size == 2 ? F::UINT16 : F::UINT32;
+      return size == 1 ? F::UINT8 : size == 2 ? F::UINT16 : size == 4 ? F::UINT32 : F::UINT64;
   }
 }
 
@@ -37,6 +37,8 @@ std::pair<char, std::size_t> pcdType(std::uint8_t datatype, const std::string& n
     case F::UINT32: return {'U', 4};
     case F::FLOAT32: return {'F', 4};
     case F::FLOAT64: return {'F', 8};
+    case F::INT64: return {'I', 8};
+    case F::UINT64: return {'U', 8};
     default: throw Error("field " + name + ": datatype " + std::to_string(datatype) + " cannot be written to PCD");
   }
 }

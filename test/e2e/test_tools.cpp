@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -149,6 +150,64 @@ TEST_F(Tools, BadInputIsAOneLineErrorAndKeepsPreviousOutputs) {
   for (const auto& e : fs::directory_iterator(o)) files += e.is_regular_file() ? 1 : 0;
   EXPECT_EQ(files, 1u);
   for (const auto& e : fs::directory_iterator(o)) EXPECT_FALSE(e.is_directory()) << e.path();
+}
+
+/// Runs the tool, sends `sig` when it reports the warp, returns its exit code and stderr.
+Result interruptDuringWarp(const std::vector<std::string>& args, int sig) {
+  int fds[2];
+  if (::pipe(fds) != 0) return {-1, "pipe failed"};
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    ::dup2(fds[1], 2);
+    ::close(fds[0]);
+    std::vector<char*> argv;
+    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    ::execv(argv[0], argv.data());
+    ::_exit(127);
+  }
+  ::close(fds[1]);
+  Result r{-1, ""};
+  bool sent = false;
+  char buf[4096];
+  ssize_t n;
+  while ((n = ::read(fds[0], buf, sizeof(buf))) > 0) {
+    r.output.append(buf, static_cast<std::size_t>(n));
+    if (!sent && r.output.find("warping") != std::string::npos) {
+      ::kill(pid, sig);
+      sent = true;
+    }
+  }
+  ::close(fds[0]);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+TEST_F(Tools, AnInterruptedWarpLeavesThePreviousOutputs) {
+  const std::string big = out("big");
+  ASSERT_EQ(sh(bin("simulate_drive") + " --out " + big + " --map-points 4000000 --seed 9").code, 0);
+  for (int sig : {SIGINT, SIGTERM}) {
+    const std::string o = out("interrupted" + std::to_string(sig));
+    fs::create_directories(o);
+    std::ofstream(o + "/report.json") << "{\"previous\": true}\n";
+    std::ofstream(o + "/map_georeferenced.pcd") << "previous map\n";
+    const Result r = interruptDuringWarp(
+        {bin("georeference"), "--bag", big + "/drive.bag", "--map", big + "/map.pcd", "--out", o,
+         "--control-points", "2000", "--threads", "1"},
+        sig);
+    EXPECT_EQ(r.code, 130) << r.output;
+    EXPECT_NE(r.output.find("cancelled"), std::string::npos) << r.output;
+    EXPECT_EQ(readJson(o + "/report.json")["previous"], true);
+    std::ifstream map(o + "/map_georeferenced.pcd");
+    std::string first;
+    std::getline(map, first);
+    EXPECT_EQ(first, "previous map");
+    std::size_t entries = 0;
+    for (const auto& e : fs::directory_iterator(o)) ++entries, (void)e;
+    EXPECT_EQ(entries, 2u) << "nothing else may be left behind";
+  }
 }
 
 TEST_F(Tools, SimulatorRejectsBadSettings) {
