@@ -59,3 +59,54 @@ install_deps() {
   apt-get update -q >&2
   apt-get install -y -q --no-install-recommends "${missing[@]}" >&2
 }
+
+# The instrumented workspace: clang-14 with AddressSanitizer, UndefinedBehaviorSanitizer and
+# libFuzzer coverage; builds the unit and end-to-end tests, the tools and the fuzz targets.
+FLEXCLOUD_SAN_WS="${FLEXCLOUD_SAN_WS:-${FLEXCLOUD_ROOT}/.ws-sanitize}"
+build_sanitize_workspace() {
+  clean_ros_env
+  mkdir -p "${FLEXCLOUD_SAN_WS}/src"
+  [ -e "${FLEXCLOUD_SAN_WS}/src/flexcloud" ] || ln -s "${FLEXCLOUD_ROOT}" "${FLEXCLOUD_SAN_WS}/src/flexcloud"
+  # CMake keeps the compiler of the first configure: start over if it was not clang.
+  local cache="${FLEXCLOUD_SAN_WS}/build/CMakeCache.txt"
+  if [ -f "${cache}" ] && ! grep -q "CMAKE_CXX_COMPILER:.*clang" "${cache}"; then
+    rm -rf "${FLEXCLOUD_SAN_WS}/build" "${FLEXCLOUD_SAN_WS}/devel"
+  fi
+  log "building the sanitizer and fuzz workspace in ${FLEXCLOUD_SAN_WS}"
+  (cd "${FLEXCLOUD_SAN_WS}" && CC=clang-14 CXX=clang++-14 catkin_make -j"$(nproc)" \
+      -DCMAKE_BUILD_TYPE=RelWithDebInfo -DFLEXCLOUD_FUZZ=ON -DCATKIN_ENABLE_TESTING=ON \
+      -DPYTHON_EXECUTABLE=/usr/bin/python3 \
+      flexcloud_unit_tests flexcloud_e2e_tests georeference simulate_drive \
+      fuzz_text fuzz_pipeline fuzz_pcd fuzz_bag >&2)
+}
+
+# Runs every fuzz target for $1 seconds on a copy of its seed corpus; writes a JUnit file per
+# target into $2. A crash, leak, timeout or sanitizer report fails the target and leaves the
+# input that caused it in $2.
+run_fuzzers() {
+  local seconds="$1" results="$2" target work rc
+  mkdir -p "${results}"
+  for target in text pipeline pcd bag; do
+    work="$(mktemp -d)"
+    cp -r "${FLEXCLOUD_ROOT}/fuzz/corpus/${target}/." "${work}/"
+    log "fuzzing ${target} for ${seconds} s"
+    set +e
+    ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
+      "${FLEXCLOUD_SAN_WS}/devel/lib/flexcloud/fuzz_${target}" -max_total_time="${seconds}" \
+      -rss_limit_mb=2048 -timeout=20 -print_final_stats=1 \
+      -artifact_prefix="${results}/fuzz_${target}-" "${work}" > "${results}/fuzz_${target}.log" 2>&1
+    rc=$?
+    set -e
+    python3 - "${results}/fuzz_${target}.xml" "${target}" "${rc}" "${results}/fuzz_${target}.log" <<'PY'
+import sys, xml.sax.saxutils as x
+path, target, rc, log = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4]
+text = open(log, errors="replace").read()[-4000:]
+fail = "" if rc == 0 else f'<failure message="fuzz_{target} exited {rc}">{x.escape(text)}</failure>'
+open(path, "w").write(f'<testsuite name="fuzz" tests="1"><testcase classname="fuzz" name="{target}">'
+                      f'{fail}<system-out>{x.escape(text)}</system-out></testcase></testsuite>\n')
+PY
+    grep -E "stat::number_of_executed_runs|stat::new_units_added" "${results}/fuzz_${target}.log" | \
+      sed "s/^/[fuzz_${target}] /" >&2 || true
+    rm -rf "${work}"
+  done
+}

@@ -1,24 +1,67 @@
 #!/usr/bin/env bash
-# Installs what is missing, builds, runs every test (unit, end-to-end, ROS integration), and
-# ends with the line "N passed, N failed". Exit status non-zero on any failure.
-#   scripts/test.sh               the whole suite
+# Installs what is missing, builds and runs the tests; ends with the line "N passed, N failed"
+# and exits non-zero on any failure.
+#   scripts/test.sh              every test: the suite (unit, end-to-end, rostests), the unit and
+#                                end-to-end tests again under ASan + UBSan, and each fuzz target
+#                                for FUZZ_SECONDS (default 20)
+#   scripts/test.sh --quick      the suite only
+#   scripts/test.sh --sanitize   the sanitizer run only
+#   scripts/test.sh --fuzz [S]   the fuzz targets only, S seconds each (default 20)
 set -uo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 
-install_deps || { echo "0 passed, 1 failed"; exit 1; }
-if ! build_workspace; then
-  log "build failed"
-  echo "0 passed, 1 failed"
-  exit 1
+suite=1 sanitize=1 fuzz=1
+fuzz_seconds="${FUZZ_SECONDS:-20}"
+case "${1:-}" in
+  "") ;;
+  --quick) sanitize=0 fuzz=0 ;;
+  --sanitize) suite=0 fuzz=0 ;;
+  --fuzz) suite=0 sanitize=0; fuzz_seconds="${2:-${fuzz_seconds}}" ;;
+  *) echo "usage: scripts/test.sh [--quick | --sanitize | --fuzz [SECONDS]]" >&2; exit 2 ;;
+esac
+
+fail() { log "$1"; echo "0 passed, 1 failed"; exit 1; }
+install_deps || fail "installing the dependencies failed"
+results="$(mktemp -d)"
+trap 'rm -rf "${results}"' EXIT
+
+if [ "${suite}" = 1 ]; then
+  build_workspace || fail "build failed"
+  rm -rf "${FLEXCLOUD_WS}/build/test_results"
+  run_log="${FLEXCLOUD_WS}/run_tests.log"
+  log "running the tests (log: ${run_log})"
+  # catkin_make run_tests exits 0 even when tests fail: the result files decide. It runs inside
+  # the workspace's environment, so rostest finds the package whatever the configure-time cache.
+  (cd "${FLEXCLOUD_WS}" && in_workspace catkin_make run_tests -j"$(nproc)" \
+      -DCMAKE_BUILD_TYPE="${FLEXCLOUD_BUILD_TYPE}" -DPYTHON_EXECUTABLE=/usr/bin/python3) \
+      > "${run_log}" 2>&1
+  grep -E "^(loop|open|a2rl|outage|3 )" "${run_log}" >&2 || true
+  cp -r "${FLEXCLOUD_WS}/build/test_results" "${results}/suite" 2>/dev/null || true
 fi
-results="${FLEXCLOUD_WS}/build/test_results"
-rm -rf "${results}"
-run_log="${FLEXCLOUD_WS}/run_tests.log"
-log "running the tests (log: ${run_log})"
-# catkin_make run_tests exits 0 even when tests fail: the result files decide. It runs inside
-# the workspace's environment, so rostest finds the package whatever the configure-time cache.
-(cd "${FLEXCLOUD_WS}" && in_workspace catkin_make run_tests -j"$(nproc)" \
-    -DCMAKE_BUILD_TYPE="${FLEXCLOUD_BUILD_TYPE}" -DPYTHON_EXECUTABLE=/usr/bin/python3) \
-    > "${run_log}" 2>&1
-grep -E "^(loop|open|a2rl|outage)" "${run_log}" >&2 || true
+
+if [ "${sanitize}" = 1 ] || [ "${fuzz}" = 1 ]; then
+  build_sanitize_workspace || fail "the sanitizer build failed"
+fi
+
+if [ "${sanitize}" = 1 ]; then
+  mkdir -p "${results}/sanitize"
+  for t in flexcloud_unit_tests flexcloud_e2e_tests; do
+    log "running ${t} under AddressSanitizer and UndefinedBehaviorSanitizer"
+    ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
+      "${FLEXCLOUD_SAN_WS}/devel/lib/flexcloud/${t}" \
+      --gtest_output="xml:${results}/sanitize/sanitize-${t}.xml" > "${results}/sanitize/${t}.log" 2>&1
+    rc=$?
+    # A sanitizer report aborts the binary: record it as a failure if gtest could not.
+    if [ "${rc}" -ne 0 ] && ! grep -q "<failure" "${results}/sanitize/sanitize-${t}.xml" 2>/dev/null; then
+      tail -40 "${results}/sanitize/${t}.log" >&2
+      printf '<testsuite><testcase classname="sanitize" name="%s"><failure message="exit %s"/></testcase></testsuite>\n' \
+        "${t}" "${rc}" > "${results}/sanitize/sanitize-${t}-exit.xml"
+    fi
+  done
+fi
+
+if [ "${fuzz}" = 1 ]; then
+  run_fuzzers "${fuzz_seconds}" "${results}/fuzz"
+fi
+
 python3 "${FLEXCLOUD_ROOT}/scripts/count_results.py" "${results}"

@@ -207,7 +207,9 @@ void TetLocator::build(int threads, const std::vector<Eigen::Vector3d>* sample) 
       }
     }
   });
-  std::vector<bool> occupied(static_cast<std::size_t>(n_.prod()), sample == nullptr);
+  // Sub-cells only where sample points are: without a sample (a few points to transform, not a
+  // map) level 1 and the walk do.
+  std::vector<bool> occupied(static_cast<std::size_t>(n_.prod()), false);
   if (sample != nullptr) {
     for (const auto& p : *sample) {
       if (p.allFinite() && (p.array() >= lo_.array()).all() && (p.array() <= hi_.array()).all()) {

@@ -41,7 +41,8 @@ class TetLocator {
 
   /// Builds the grid (on `threads` threads); until then locate() walks from tetrahedron 0.
   /// `sample` (optional) are points like those that will be located: mixed cells that hold
-  /// none of them get no sub-cells, so the budget goes where the points are.
+  /// some of them get sub-cells, so the budget goes where the points are; without a sample the
+  /// grid stays at level 1.
   void build(int threads, const std::vector<Eigen::Vector3d>* sample = nullptr);
   Location locate(const Eigen::Vector3d& p) const;
   /// Visibility walk from tetrahedron `start`.

@@ -7,6 +7,7 @@
 #include <map>
 #include <set>
 
+#include "flexcloud/ros/bag_check.h"
 #include "flexcloud/ros/conversions.h"
 
 namespace flexcloud {
@@ -59,11 +60,25 @@ std::string resolve(const std::string& bag, const std::map<std::string, std::str
   throw Error(bag + ": several " + what + " topics (" + names + "); choose one with " + option);
 }
 
+/// Checks the vector lengths of a message before the deserializer resizes to them.
+bool lengthsFit(const rosbag::MessageInstance& m,
+                bool (*fits)(const std::uint8_t*, std::size_t), const std::string& bag) {
+  std::vector<std::uint8_t> raw(m.size());
+  ros::serialization::OStream stream(raw.data(), static_cast<std::uint32_t>(raw.size()));
+  m.write(stream);
+  if (!fits(raw.data(), raw.size())) {
+    throw Error(bag + ": a " + m.getDataType() + " message on " + m.getTopic() +
+                " holds a vector longer than the message (corrupt bag)");
+  }
+  return true;
+}
+
 }  // namespace
 
 BagSummary readBag(const std::string& path, const BagTopics& topics, DriveCollector& collector,
                    pcl::PCLPointCloud2* map, const std::function<void(double)>& progress) {
   BagSummary out;
+  checkBagStructure(path);
   try {
     rosbag::Bag bag;
     bag.open(path, rosbag::bagmode::Read);
@@ -97,10 +112,10 @@ BagSummary readBag(const std::string& path, const BagTopics& topics, DriveCollec
           if (auto msg = m.instantiate<nav_msgs::Odometry>()) collector.handleOdometry(*msg);
         } else if (out.odom_type == kPoseType) {
           if (auto msg = m.instantiate<geometry_msgs::PoseStamped>()) collector.handlePose(*msg);
-        } else if (auto msg = m.instantiate<nav_msgs::Path>()) {
-          collector.handlePath(*msg);
+        } else if (lengthsFit(m, pathLengthsFit, path)) {
+          if (auto msg = m.instantiate<nav_msgs::Path>()) collector.handlePath(*msg);
         }
-      } else if (topic == out.map_topic && map != nullptr) {
+      } else if (topic == out.map_topic && map != nullptr && lengthsFit(m, cloudLengthsFit, path)) {
         if (auto msg = m.instantiate<sensor_msgs::PointCloud2>()) {
           ros_conv::fromCloudMsg(*msg, *map);
           ++out.maps;
@@ -118,6 +133,10 @@ BagSummary readBag(const std::string& path, const BagTopics& topics, DriveCollec
                        "it): " + e.what());
   } catch (const ros::Exception& e) {
     throw Error(path + ": corrupt message data: " + e.what());
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {  // e.g. a corrupt length field asking for terabytes
+    throw Error(path + ": corrupt bag: " + e.what());
   }
   return out;
 }

@@ -131,7 +131,7 @@ TEST_F(Tools, BadInputIsAOneLineErrorAndKeepsPreviousOutputs) {
       {"--bag /nonexistent.bag", 1, "/nonexistent.bag"},
       {"--bag " + sim() + "/drive.bag --fix-topic /gps", 1, "topic /gps is not in the bag"},
       {"--bag " + sim() + "/drive.bag --fix-topic /odom", 1, "holds nav_msgs/Odometry"},
-      {"--bag " + sim() + "/map.pcd", 1, "not a readable bag"},
+      {"--bag " + sim() + "/map.pcd", 1, "not a rosbag (version 2.0) file"},
       {"--bag " + sim() + "/drive.bag --map " + sim() + "/gnss.txt", 1, "not a PCD file"},
       {"--bag " + sim() + "/drive.bag --control-points 2", 1, "control_points 2 is not in"},
       {"--bag " + sim() + "/drive.bag --set no_such=1", 1, "unknown parameter 'no_such'"},
