@@ -22,8 +22,10 @@ esac
 
 fail() { log "$1"; echo "0 passed, 1 failed"; exit 1; }
 install_deps || fail "installing the dependencies failed"
-results="$(mktemp -d)"
-trap 'rm -rf "${results}"' EXIT
+# Results, logs and any fuzz finding stay in out/test_results (git-ignored) until the next run.
+results="${FLEXCLOUD_ROOT}/out/test_results"
+rm -rf "${results}"
+mkdir -p "${results}"
 
 if [ "${suite}" = 1 ]; then
   build_workspace || fail "build failed"

@@ -127,7 +127,10 @@ TEST_F(Tools, BadInputIsAOneLineErrorAndKeepsPreviousOutputs) {
     int code;
     std::string says;
   };
+  std::ofstream(out("empty.pcd")) << "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 0\nHEIGHT 1\n"
+                                     "POINTS 0\nDATA binary\n";
   const std::vector<Case> cases = {
+      {"--bag " + sim() + "/drive.bag --map " + out("empty.pcd"), 1, "the map holds no points"},
       {"--bag /nonexistent.bag", 1, "/nonexistent.bag"},
       {"--bag " + sim() + "/drive.bag --fix-topic /gps", 1, "topic /gps is not in the bag"},
       {"--bag " + sim() + "/drive.bag --fix-topic /odom", 1, "holds nav_msgs/Odometry"},
