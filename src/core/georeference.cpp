@@ -4,9 +4,9 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <unordered_map>
 #include <sstream>
 
+#include "cell_hash.h"
 #include "flexcloud/interpolation.h"
 #include "flexcloud/metrics.h"
 
@@ -155,23 +155,14 @@ RevisitCheck checkRevisits(const GeoreferenceResult& r) {
   RevisitCheck out;
   const auto& cps = r.control_points.points;
   const std::vector<double> arc = arcLength(positionsOf(r.poses));
-  struct Hash {
-    std::size_t operator()(const Eigen::Vector3i& k) const {
-      return (static_cast<std::size_t>(k.x()) * 73856093u) ^
-             (static_cast<std::size_t>(k.y()) * 19349663u) ^ (static_cast<std::size_t>(k.z()) * 83492791u);
-    }
-  };
-  struct Eq {
-    bool operator()(const Eigen::Vector3i& a, const Eigen::Vector3i& b) const { return a == b; }
-  };
-  std::unordered_map<Eigen::Vector3i, std::vector<std::size_t>, Hash, Eq> cells;
+  CellMap<std::vector<std::size_t>> cells;
   std::vector<Eigen::Vector3d> aligned(cps.size());
   for (std::size_t i = 0; i < cps.size(); ++i) {
     aligned[i] = r.T_enu_map * cps[i].source;
-    cells[(aligned[i] / kRadius).array().floor().cast<int>()].push_back(i);
+    cells[cellOf(aligned[i], kRadius)].push_back(i);
   }
   for (std::size_t i = 0; i < cps.size(); ++i) {
-    const Eigen::Vector3i key = (aligned[i] / kRadius).array().floor().cast<int>();
+    const Eigen::Vector3i key = cellOf(aligned[i], kRadius);
     for (int dx = -1; dx <= 1; ++dx) {
       for (int dy = -1; dy <= 1; ++dy) {
         for (int dz = -1; dz <= 1; ++dz) {

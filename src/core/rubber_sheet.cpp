@@ -11,8 +11,8 @@
 #include <cmath>
 #include <limits>
 #include <thread>
-#include <unordered_map>
 
+#include "cell_hash.h"
 #include "tet_locator.h"
 
 namespace flexcloud {
@@ -35,21 +35,11 @@ constexpr double kFlatQuality = 1e-9;  // |det(edges)| / longest^3 below this: a
 
 /// Keeps the first of any sources within kMergeDistance of each other.
 std::vector<std::size_t> mergeNearDuplicates(const std::vector<Eigen::Vector3d>& pts) {
-  struct Hash {
-    std::size_t operator()(const Eigen::Vector3i& k) const {
-      return (static_cast<std::size_t>(k.x()) * 73856093u) ^
-             (static_cast<std::size_t>(k.y()) * 19349663u) ^
-             (static_cast<std::size_t>(k.z()) * 83492791u);
-    }
-  };
-  struct Eq {
-    bool operator()(const Eigen::Vector3i& a, const Eigen::Vector3i& b) const { return a == b; }
-  };
-  std::unordered_map<Eigen::Vector3i, std::vector<std::size_t>, Hash, Eq> buckets;
+  CellMap<std::vector<std::size_t>> buckets;
   std::vector<std::size_t> kept;
   kept.reserve(pts.size());
   for (std::size_t i = 0; i < pts.size(); ++i) {
-    const Eigen::Vector3i key = (pts[i] / kMergeDistance).array().floor().cast<int>();
+    const Eigen::Vector3i key = cellOf(pts[i], kMergeDistance);
     bool duplicate = false;
     for (int dx = -1; dx <= 1 && !duplicate; ++dx) {
       for (int dy = -1; dy <= 1 && !duplicate; ++dy) {

@@ -5,10 +5,10 @@
 
 namespace flexcloud {
 
-double peakMemoryMb() {
+double peakMemoryMb(const std::string& status_path) {
   // VmHWM belongs to this program's address space: unlike getrusage's ru_maxrss it does not
   // carry over the pages of a large parent that started us.
-  std::ifstream status("/proc/self/status");
+  std::ifstream status(status_path);
   std::string key;
   while (status >> key) {
     if (key == "VmHWM:") {

@@ -107,9 +107,16 @@ GeoreferenceNode::~GeoreferenceNode() {
     stop_ = true;
   }
   wake_.notify_all();
-  if (service_spinner_) service_spinner_->stop();
+  // The worker finishes a run in progress and answers a waiting call before it ends, so no
+  // service thread is left waiting when the spinner stops; then no callback may start once the
+  // members it uses begin to go.
   if (bag_thread_.joinable()) bag_thread_.join();
   if (worker_.joinable()) worker_.join();
+  for (auto& s : subscribers_) s.shutdown();
+  for (auto& s : services_) s.shutdown();
+  service_nh_.shutdown();
+  if (service_spinner_) service_spinner_->stop();
+  reconfigure_.reset();
 }
 
 void GeoreferenceNode::advertise() {
@@ -249,6 +256,11 @@ void GeoreferenceNode::workerLoop() {
     }
     if (job.reply) job.reply->set_value(reply);
   }
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (service_job_ && service_job_->reply) {
+    service_job_->reply->set_value(failure("the node is shutting down"));
+  }
+  service_job_.reset();
 }
 
 std::shared_ptr<const GeoreferenceNode::State> GeoreferenceNode::run(const Params& params) {
@@ -378,6 +390,7 @@ flexcloud::Georeference::Response GeoreferenceNode::georeference(int control_poi
   Params params;
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    if (stop_) return failure("the node is shutting down");
     if (busy_ || service_job_) {
       return failure("a georeferencing run is going; call again when it has finished");
     }
@@ -438,22 +451,35 @@ void GeoreferenceNode::reset() {
   ROS_INFO("%s: cleared every fix and pose collected so far", name_.c_str());
 }
 
+// The callbacks answer every call: an exception becomes success false with its message
+// (returning false or throwing would leave the caller with a bare transport failure).
+template <typename Response, typename F>
+bool answer(Response& res, const std::string& name, F&& f) {
+  try {
+    f();
+  } catch (const std::exception& e) {
+    ROS_ERROR("%s: %s", name.c_str(), e.what());
+    res.success = false;
+    res.message = e.what();
+  }
+  return true;
+}
+
 bool GeoreferenceNode::onGeoreference(flexcloud::Georeference::Request& req,
                                       flexcloud::Georeference::Response& res) {
-  res = georeference(req.control_points, req.stddev_threshold);
-  return true;
+  return answer(res, name_, [&] { res = georeference(req.control_points, req.stddev_threshold); });
 }
 
 bool GeoreferenceNode::onSave(flexcloud::Save::Request& req, flexcloud::Save::Response& res) {
-  res = save(req.directory);
-  return true;
+  return answer(res, name_, [&] { res = save(req.directory); });
 }
 
 bool GeoreferenceNode::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
-  reset();
-  res.success = true;
-  res.message = "cleared";
-  return true;
+  return answer(res, name_, [&] {
+    reset();
+    res.success = true;
+    res.message = "cleared";
+  });
 }
 
 void GeoreferenceNode::pushConfig(const Params& p) {

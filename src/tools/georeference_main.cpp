@@ -266,10 +266,11 @@ int run(int argc, char** argv) {
       warpPcdFile(o.map, path, *r.sheet, so, info);
     };
   } else if (map) {
+    std::optional<pcl::PCLPointCloud2> truth;
     if (!o.truth.empty()) {
-      const pcl::PCLPointCloud2 truth = readPcd(o.truth);
+      truth = readPcd(o.truth);
       info.has_truth = true;
-      info.truth_aligned = compareClouds(*map, truth, [&](const Eigen::Vector3d& p) {
+      info.truth_aligned = compareClouds(*map, *truth, [&](const Eigen::Vector3d& p) {
         return Eigen::Vector3d(r.T_enu_map * p);
       });
     }
@@ -277,9 +278,9 @@ int run(int argc, char** argv) {
     const auto t0 = std::chrono::steady_clock::now();
     info.warp = warpCloud(*map, *r.sheet, params.threads, o.map);
     info.warp_seconds = since(t0);
-    if (!o.truth.empty()) {
-      info.truth_rubbersheet = compareClouds(*map, readPcd(o.truth),
-                                             [](const Eigen::Vector3d& p) { return p; });
+    if (truth) {
+      info.truth_rubbersheet =
+          compareClouds(*map, *truth, [](const Eigen::Vector3d& p) { return p; });
     }
     write_map = [&](const std::string& path) {
       const auto t1 = std::chrono::steady_clock::now();

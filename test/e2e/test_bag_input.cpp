@@ -30,6 +30,13 @@ std::string bagPath(const std::string& name) {
   return (fs::path(::testing::TempDir()) / (name + "_" + std::to_string(::getpid()) + ".bag")).string();
 }
 
+void writeFixes(rosbag::Bag& bag, const std::string& topic) {
+  for (const auto& f : drive().fixes) {
+    const auto m = ros_conv::toNavSatFix(f, "gnss");
+    bag.write(topic, m.header.stamp, m);
+  }
+}
+
 std::string errorOf(const std::string& path, BagTopics topics = {}) {
   DriveCollector c;
   try {
@@ -45,11 +52,8 @@ TEST(BagInput, SeveralCandidateTopicsAskForAChoice) {
   const std::string path = bagPath("two_fixes");
   {
     rosbag::Bag bag(path, rosbag::bagmode::Write);
-    for (const auto& f : drive().fixes) {
-      const auto m = ros_conv::toNavSatFix(f, "gnss");
-      bag.write("/gnss/fix", m.header.stamp, m);
-      bag.write("/gps/fix", m.header.stamp, m);
-    }
+    writeFixes(bag, "/gnss/fix");
+    writeFixes(bag, "/gps/fix");
     for (const auto& p : drive().slam) {
       const auto m = ros_conv::toOdometry(p, "map", "base");
       bag.write("/odom", m.header.stamp, m);
@@ -71,11 +75,8 @@ TEST(BagInput, PoseStampedAndTheLastPathAreRead) {
   const std::string pose_bag = bagPath("poses"), path_bag = bagPath("paths");
   {
     rosbag::Bag a(pose_bag, rosbag::bagmode::Write), b(path_bag, rosbag::bagmode::Write);
-    for (const auto& f : drive().fixes) {
-      const auto m = ros_conv::toNavSatFix(f, "gnss");
-      a.write("/fix", m.header.stamp, m);
-      b.write("/fix", m.header.stamp, m);
-    }
+    writeFixes(a, "/fix");
+    writeFixes(b, "/fix");
     for (const auto& p : drive().slam) {
       const auto o = ros_conv::toOdometry(p, "map", "base");
       geometry_msgs::PoseStamped ps;
@@ -101,10 +102,7 @@ TEST(BagInput, AForgedVectorLengthIsAnErrorNotAnAllocation) {
   nav_msgs::Path msg = ros_conv::toPath(Trajectory(drive().slam.begin(), drive().slam.begin() + 3), "map");
   {
     rosbag::Bag bag(path, rosbag::bagmode::Write);
-    for (const auto& f : drive().fixes) {
-      const auto m = ros_conv::toNavSatFix(f, "gnss");
-      bag.write("/fix", m.header.stamp, m);
-    }
+    writeFixes(bag, "/fix");
     bag.write("/path", msg.header.stamp, msg);
   }
   // The poses count sits right after the header (seq, stamp, "map"): make it claim 2^31 poses.
@@ -133,10 +131,7 @@ TEST(BagInput, ACutOrCorruptBagNamesTheByte) {
   const std::string good = bagPath("good"), cut = bagPath("cut");
   {
     rosbag::Bag bag(good, rosbag::bagmode::Write);
-    for (const auto& f : drive().fixes) {
-      const auto m = ros_conv::toNavSatFix(f, "gnss");
-      bag.write("/fix", m.header.stamp, m);
-    }
+    writeFixes(bag, "/fix");
   }
   std::ifstream in(good, std::ios::binary);
   const std::string bytes((std::istreambuf_iterator<char>(in)), {});

@@ -17,6 +17,7 @@
 #include "flexcloud/GeoreferenceConfig.h"
 #include "flexcloud/Save.h"
 #include "flexcloud/cloud_warp.h"
+#include "flexcloud/io/memory.h"
 #include "flexcloud/io/pcd_io.h"
 #include "flexcloud/ros/conversions.h"
 #include "flexcloud/sim/sim_cloud.h"
@@ -297,16 +298,7 @@ double nodePeakMb(const std::string& node) {
   a[0] = ros::this_node::getName();
   if (!client.execute("getPid", a, r) || r.size() < 3) return -1.0;
   const int pid = r[2];
-  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
-  std::string key;
-  while (status >> key) {
-    if (key == "VmHWM:") {
-      double kb = 0;
-      status >> kb;
-      return kb / 1024.0;
-    }
-  }
-  return -1.0;
+  return peakMemoryMb("/proc/" + std::to_string(pid) + "/status");
 }
 
 /// An hour of 100 Hz fixes and odometry pushed as fast as the link takes them (for a bounded
@@ -344,6 +336,9 @@ TEST(Stress, AnHourAt100HzWithCallsReconfiguresAndNewMaps) {
       ++calls;
       if (r.success) ++succeeded;
       if (r.message.find("a georeferencing run is going") != std::string::npos) ++refused;
+      if (!r.success && r.message.find("a georeferencing run is going") == std::string::npos) {
+        std::printf("stress: call answered: %s\n", r.message.c_str());
+      }
     }
   };
   std::thread caller_a(callLoop), caller_b(callLoop);  // two callers: calls overlap runs

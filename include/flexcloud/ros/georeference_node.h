@@ -76,10 +76,12 @@ class GeoreferenceNode {
   void publish(const State& s);
   flexcloud::Georeference::Response describe(const State& s) const;
 
+  // Declared first, destroyed last: the node handles and services below still reach it when
+  // they go (a queue destroyed before them made the nodelet crash on unload).
+  ros::CallbackQueue service_queue_;
   ros::NodeHandle nh_;
   ros::NodeHandle pnh_;
   ros::NodeHandle service_nh_;  // services on their own queue and spinner (see below)
-  ros::CallbackQueue service_queue_;
   std::unique_ptr<ros::AsyncSpinner> service_spinner_;
   std::string name_;
   NodeParams params_;  // guarded by mutex_ once the worker runs; first for the initializers
