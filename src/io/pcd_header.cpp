@@ -144,6 +144,19 @@ PcdHeader parsePcdHeader(const std::string& bytes, const std::string& name,
   if (h.data == PcdHeader::Data::kBinaryCompressed && h.points > 0 && body < 8) {
     fail(name, 0, "the compressed body is missing (file cut short?)");
   }
+  // Nothing is allocated for points a body cannot hold: an ascii point takes at least a
+  // character and a separator per value; a compressed body unpacks to at most 4 GiB.
+  std::uint64_t values = 0;
+  for (const auto& f : h.fields) values += f.count;
+  if (h.data == PcdHeader::Data::kAscii && h.points > 0 &&
+      body + 1 < static_cast<std::uint64_t>(h.points) * 2 * values) {
+    fail(name, 0, "the ascii body (" + std::to_string(body) + " bytes) cannot hold " +
+                      std::to_string(h.points) + " points (file cut short?)");
+  }
+  if (h.data == PcdHeader::Data::kBinaryCompressed &&
+      static_cast<std::uint64_t>(h.points) * h.point_step > 0xFFFFFFFFull) {
+    fail(name, 0, "POINTS too many for a compressed PCD (more than 4 GiB unpacked)");
+  }
   return h;
 }
 

@@ -22,6 +22,7 @@ namespace {
 // body it turns "five" or a missing value into a number. Every encoding is read here instead,
 // strictly; PCL supplies the cloud type and the LZF codec.
 
+/// The cloud's description; its buffer is sized by the reader once the body is known to hold it.
 pcl::PCLPointCloud2 emptyCloud(const PcdHeader& h) {
   pcl::PCLPointCloud2 cloud;
   cloud.fields = pclFields(h);
@@ -30,7 +31,6 @@ pcl::PCLPointCloud2 emptyCloud(const PcdHeader& h) {
   cloud.point_step = static_cast<std::uint32_t>(h.point_step);
   cloud.row_step = cloud.point_step * cloud.width;
   cloud.is_dense = 0;
-  cloud.data.resize(h.points * h.point_step);
   return cloud;
 }
 
@@ -78,6 +78,7 @@ bool parseValue(const std::string& tok, const PcdField& f, std::uint8_t* out) {
 
 void readAscii(const std::string& path, const PcdHeader& h, pcl::PCLPointCloud2& cloud) {
   const std::string body = readBody(path, h);
+  cloud.data.resize(h.points * h.point_step);  // bounded by the body's size (header check)
   std::size_t values = 0;
   for (const auto& f : h.fields) values += f.count;
   // Line numbers in messages count from the file's first line.
@@ -133,6 +134,7 @@ void readAscii(const std::string& path, const PcdHeader& h, pcl::PCLPointCloud2&
 void readCompressed(const std::string& path, const PcdHeader& h, pcl::PCLPointCloud2& cloud) {
   const std::string body = readBody(path, h);
   if (h.points == 0) return;
+  // (the cloud's buffer is allocated below, once the sizes are known to agree)
   std::uint32_t sizes[2];
   if (body.size() < sizeof(sizes)) throw Error(path + ": the compressed body is missing");
   std::memcpy(sizes, body.data(), sizeof(sizes));
@@ -144,6 +146,7 @@ void readCompressed(const std::string& path, const PcdHeader& h, pcl::PCLPointCl
   if (sizes[0] > body.size() - sizeof(sizes)) {
     throw Error(path + ": the compressed body is shorter than it says (file cut short?)");
   }
+  cloud.data.resize(h.points * h.point_step);
   std::vector<std::uint8_t> packed(sizes[1]);
   const unsigned got = pcl::lzfDecompress(body.data() + sizeof(sizes), sizes[0], packed.data(), sizes[1]);
   if (got != sizes[1]) throw Error(path + ": the compressed body is corrupt");
@@ -165,8 +168,9 @@ pcl::PCLPointCloud2 readPcd(const std::string& path) {
   const PcdHeader header = readPcdHeader(path);
   pcl::PCLPointCloud2 cloud = emptyCloud(header);
   switch (header.data) {
-    case PcdHeader::Data::kBinary: {
+    case PcdHeader::Data::kBinary: {  // the header check made sure the file holds the body
       PcdChunkReader reader(path);
+      cloud.data.resize(header.points * header.point_step);
       reader.read(cloud.data.data(), header.points);
       break;
     }

@@ -101,7 +101,7 @@ ProcessRun runProcess(const std::vector<std::string>& args) {
   std::fflush(stdout);
   const pid_t pid = ::fork();
   if (pid == 0) {
-    std::freopen("/dev/null", "w", stdout);
+    if (std::freopen("/dev/null", "w", stdout) == nullptr) ::_exit(126);
     std::vector<char*> argv;
     for (const auto& s : args) argv.push_back(const_cast<char*>(s.c_str()));
     argv.push_back(nullptr);
