@@ -50,6 +50,13 @@ WarpStats warpPoints(std::uint8_t* data, const XyzLayout& layout, const RubberSh
 ErrorStats compareClouds(const pcl::PCLPointCloud2& cloud, const pcl::PCLPointCloud2& truth,
                          const std::function<Eigen::Vector3d(const Eigen::Vector3d&)>& f);
 
+/// The same on point buffers: `n` points of `a` (mapped by `f`) against those of `b`, added to
+/// `acc`.
+void comparePoints(const std::uint8_t* a, const XyzLayout& la, const std::uint8_t* b,
+                   const XyzLayout& lb, std::size_t n,
+                   const std::function<Eigen::Vector3d(const Eigen::Vector3d&)>& f,
+                   ErrorAccumulator& acc);
+
 /// Number of worker threads for a request (0: hardware concurrency, at least 1).
 int resolveThreads(int requested);
 

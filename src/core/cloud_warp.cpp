@@ -185,13 +185,20 @@ ErrorStats compareClouds(const pcl::PCLPointCloud2& cloud, const pcl::PCLPointCl
                 std::to_string(a.points));
   }
   ErrorAccumulator acc;
-  for (std::size_t i = 0; i < a.points; ++i) {
-    const Eigen::Vector3d p = a.get(cloud.data.data() + i * a.point_step);
-    const Eigen::Vector3d t = b.get(truth.data.data() + i * b.point_step);
+  comparePoints(cloud.data.data(), a, truth.data.data(), b, a.points, f, acc);
+  return acc.stats();
+}
+
+void comparePoints(const std::uint8_t* a, const XyzLayout& la, const std::uint8_t* b,
+                   const XyzLayout& lb, std::size_t n,
+                   const std::function<Eigen::Vector3d(const Eigen::Vector3d&)>& f,
+                   ErrorAccumulator& acc) {
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3d p = la.get(a + i * la.point_step);
+    const Eigen::Vector3d t = lb.get(b + i * lb.point_step);
     if (!p.allFinite() || !t.allFinite()) continue;
     acc.add((f(p) - t).norm());
   }
-  return acc.stats();
 }
 
 }  // namespace flexcloud

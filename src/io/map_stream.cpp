@@ -128,12 +128,8 @@ class MapJob {
  private:
   void compare(const std::uint8_t* pa, const std::uint8_t* pb, std::size_t n,
                const Eigen::Isometry3d& f, ErrorAccumulator& acc) const {
-    const XyzLayout& b = truth_->layout();
-    for (std::size_t i = 0; i < n; ++i) {
-      const Eigen::Vector3d p = layout_.get(pa + i * layout_.point_step);
-      const Eigen::Vector3d q = b.get(pb + i * b.point_step);
-      if (p.allFinite() && q.allFinite()) acc.add((f * p - q).norm());
-    }
+    comparePoints(pa, layout_, pb, truth_->layout(), n,
+                  [&f](const Eigen::Vector3d& p) { return Eigen::Vector3d(f * p); }, acc);
   }
 
   std::string in_;

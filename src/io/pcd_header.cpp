@@ -134,6 +134,7 @@ PcdHeader parsePcdHeader(const std::string& bytes, const std::string& name,
     h.fields.push_back(f);
   }
   h.data_offset = pos;
+  h.header_lines = line_no;
   const std::uint64_t body = file_size >= pos ? file_size - pos : 0;
   if (h.data == PcdHeader::Data::kBinary &&
       body < static_cast<std::uint64_t>(h.points) * h.point_step) {

@@ -82,13 +82,7 @@ void readAscii(const std::string& path, const PcdHeader& h, pcl::PCLPointCloud2&
   std::size_t values = 0;
   for (const auto& f : h.fields) values += f.count;
   // Line numbers in messages count from the file's first line.
-  std::size_t line_no = 0;
-  {
-    std::ifstream in(path, std::ios::binary);
-    std::string head(h.data_offset, '\0');
-    in.read(head.data(), static_cast<std::streamsize>(head.size()));
-    line_no = static_cast<std::size_t>(std::count(head.begin(), head.end(), '\n'));
-  }
+  std::size_t line_no = h.header_lines;
   std::size_t point = 0;
   std::size_t pos = 0;
   std::vector<std::string> tokens;

@@ -25,6 +25,7 @@ struct PcdHeader {
   std::size_t point_step = 0;  ///< packed size of one point (sum of size * count)
   Data data = Data::kBinary;
   std::size_t data_offset = 0;  ///< byte where the body starts
+  std::size_t header_lines = 0; ///< lines before the body (for line numbers in body errors)
   std::uint64_t file_size = 0;
 };
 
