@@ -3,8 +3,8 @@
 #include <cstdint>
 #include <string>
 
-#include "flexcloud/io/param_table.h"
 #include "flexcloud/io/text_io.h"
+#include "flexcloud/params.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace flexcloud;
@@ -23,10 +23,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     } catch (const Error&) {
     }
   }
-  try {
-    Params p;
-    setParam(p, "excluded_ranges", text);
-  } catch (const Error&) {
+  Params p;
+  for (const auto& row : paramTable().rows()) {
+    try {
+      paramTable().setText(p, row.spec.name, text);
+    } catch (const Error&) {
+    }
   }
+  p.validate();
   return 0;
 }

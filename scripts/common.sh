@@ -17,13 +17,26 @@ clean_ros_env() {
         CMAKE_PREFIX_PATH PKG_CONFIG_PATH
 }
 
-# Makes the workspace (src/flexcloud -> the repository) and runs catkin_make in it.
+# The package as the workspace sees it: a folder of links to the repository's top-level entries,
+# except the workspaces and outputs. A plain link to the repository would hold the workspace
+# itself, and `rosrun` (which searches the package folder with `find -L`) would then meet a
+# file-system loop and every built executable twice.
+link_package() {
+  local ws="$1" view="$1/src/flexcloud" entry name
+  [ -L "${view}" ] && rm -f "${view}"
+  mkdir -p "${view}"
+  find "${view}" -mindepth 1 -maxdepth 1 -type l -delete
+  for entry in "${FLEXCLOUD_ROOT}"/* "${FLEXCLOUD_ROOT}"/.clang-format; do
+    name="$(basename "${entry}")"
+    case "${name}" in out|.ws|.ws-*|.git) continue ;; esac
+    [ -e "${entry}" ] && ln -s "${entry}" "${view}/${name}"
+  done
+}
+
+# Makes the workspace (src/flexcloud: see link_package) and runs catkin_make in it.
 build_workspace() {
   clean_ros_env
-  mkdir -p "${FLEXCLOUD_WS}/src"
-  if [ ! -e "${FLEXCLOUD_WS}/src/flexcloud" ]; then
-    ln -s "${FLEXCLOUD_ROOT}" "${FLEXCLOUD_WS}/src/flexcloud"
-  fi
+  link_package "${FLEXCLOUD_WS}"
   local jobs
   jobs="$(nproc)"
   log "building in ${FLEXCLOUD_WS} (${FLEXCLOUD_BUILD_TYPE}, ${jobs} jobs)"
@@ -32,13 +45,16 @@ build_workspace() {
       -DPYTHON_EXECUTABLE=/usr/bin/python3 "$@" >&2)
 }
 
-# Runs a command inside the workspace's ROS environment.
+# Runs a command inside the workspace's ROS environment. catkin's setup script reads the
+# positional parameters of whoever sources it: they are cleared before, and restored after.
 in_workspace() {
+  local command=("$@")
+  set --
   # shellcheck disable=SC1091
   set +u
   source "${FLEXCLOUD_WS}/devel/setup.bash"
   set -u
-  "$@"
+  "${command[@]}"
 }
 
 # Installs the missing Debian packages of scripts/deps.txt; quick when nothing is missing.
@@ -65,8 +81,7 @@ install_deps() {
 FLEXCLOUD_SAN_WS="${FLEXCLOUD_SAN_WS:-${FLEXCLOUD_ROOT}/.ws-sanitize}"
 build_sanitize_workspace() {
   clean_ros_env
-  mkdir -p "${FLEXCLOUD_SAN_WS}/src"
-  [ -e "${FLEXCLOUD_SAN_WS}/src/flexcloud" ] || ln -s "${FLEXCLOUD_ROOT}" "${FLEXCLOUD_SAN_WS}/src/flexcloud"
+  link_package "${FLEXCLOUD_SAN_WS}"
   # CMake keeps the compiler of the first configure: start over if it was not clang.
   local cache="${FLEXCLOUD_SAN_WS}/build/CMakeCache.txt"
   if [ -f "${cache}" ] && ! grep -q "CMAKE_CXX_COMPILER:.*clang" "${cache}"; then

@@ -2,15 +2,17 @@
 # Runs a command inside the built workspace's ROS environment, from any folder, e.g.
 #   scripts/env.sh roslaunch flexcloud georeference.launch bag:=/data/drive.bag
 #   scripts/env.sh rosrun flexcloud georeference --help
-# Builds the workspace first if it has not been built yet.
+# Installs and builds first if the workspace has not been built yet.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
+usage="usage: scripts/env.sh COMMAND [ARGS...]   (runs COMMAND in flexcloud's built ROS workspace)"
+case "${1:-}" in
+  "") echo "${usage}" >&2; exit 2 ;;
+  -h|--help) echo "${usage}"; exit 0 ;;
+esac
 if [ ! -f "${FLEXCLOUD_WS}/devel/setup.bash" ]; then
   install_deps
   build_workspace
 fi
-if [ "$#" -eq 0 ]; then
-  echo "usage: scripts/env.sh COMMAND [ARGS...]" >&2
-  exit 2
-fi
+link_package "${FLEXCLOUD_WS}"
 in_workspace "$@"

@@ -5,12 +5,6 @@
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 install_deps
-for pkg in imagemagick x11-apps; do
-  dpkg-query -W -f='${Status}' "${pkg}" 2>/dev/null | grep -q "install ok installed" || {
-    [ "$(id -u)" -eq 0 ] || { log "install ${pkg} first"; exit 1; }
-    DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "${pkg}" >&2
-  }
-done
 [ -f "${FLEXCLOUD_WS}/devel/setup.bash" ] || build_workspace
 out="${1:-${FLEXCLOUD_ROOT}/doc/rviz.png}"
 drive="${FLEXCLOUD_ROOT}/out/demo/drive"

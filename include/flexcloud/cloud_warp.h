@@ -4,9 +4,9 @@
 
 #include <pcl/PCLPointCloud2.h>
 
-#include <atomic>
 #include <functional>
 
+#include "flexcloud/cancel.h"
 #include "flexcloud/metrics.h"
 #include "flexcloud/rubber_sheet.h"
 
@@ -34,16 +34,16 @@ struct WarpStats {
   std::size_t non_finite = 0;  ///< NaN/inf points: kept as they are, in place
 };
 
-/// Set to true (e.g. from a signal handler) to make a running warp stop with Error.
-extern std::atomic<bool> g_cancel;
-
 /// Warps the xyz of every point with the rubber sheet (map frame -> ENU), on `threads` threads
-/// (0: all cores). Throws Error("... cancelled") if g_cancel is raised meanwhile.
+/// (0: all cores). Throws Error("NAME: warp: cancelled") once `cancel` is cancelled (the
+/// points are then partly warped).
 WarpStats warpCloud(pcl::PCLPointCloud2& cloud, const RubberSheet& sheet, int threads,
-                    const std::string& name = "map");
+                    const std::string& name = "map",
+                    const CancelToken& cancel = neverCancelled());
 /// The same on a raw point buffer of the given layout.
 WarpStats warpPoints(std::uint8_t* data, const XyzLayout& layout, const RubberSheet& sheet,
-                     int threads, const std::string& name = "map");
+                     int threads, const std::string& name = "map",
+                     const CancelToken& cancel = neverCancelled());
 
 /// Deviation of the cloud's points, mapped by `f`, from the same points of `truth` (same count,
 /// same order; NaN points skipped).

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "flexcloud/alignment.h"
+#include "flexcloud/cloud_warp.h"
 #include "flexcloud/control_points.h"
 #include "flexcloud/gnss.h"
 #include "flexcloud/params.h"
@@ -67,6 +68,15 @@ struct GeoreferenceResult {
 /// are invalid, no GNSS or pose is usable, the two do not overlap in time, fewer than 4 control
 /// points are usable, or the triangulation is degenerate.
 GeoreferenceResult georeference(const DriveInput& input, const Params& params);
+
+/// What a user must read beside the result, one line each: a large share of the poses without
+/// GNSS or of the map beyond the GNSS coverage (moved by the rigid transform only; `map` null:
+/// no map), and revisit conflicts.
+std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Params& params,
+                                        const WarpStats* map);
+
+/// The interpolated GNSS at every matched pose, stamped like the pose (identity orientation).
+Trajectory gnssTrajectory(const GeoreferenceResult& r);
 
 /// The rotation nearest to a linear map (polar decomposition).
 Eigen::Matrix3d nearestRotation(const Eigen::Matrix3d& m);

@@ -1,11 +1,13 @@
 #pragma once
-// The one parameter struct of the core. The YAML config, the command line, rosparam and
-// dynamic_reconfigure all fill this struct; the key of each field is its name.
+// The one parameter struct of the core. Each field is one row of paramTable() (params.cpp),
+// where its default, range, unit and description live; the YAML config, the command line,
+// rosparam and dynamic_reconfigure all fill this struct through that table.
 
 #include <limits>
 #include <string>
 #include <vector>
 
+#include "flexcloud/param_table.h"
 #include "flexcloud/types.h"
 
 namespace flexcloud {
@@ -19,59 +21,45 @@ InterpolationMode parseInterpolationMode(const std::string& text);
 struct Params {
   static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-  // --- Datum -----------------------------------------------------------------------------
-  /// Latitude (deg) of the ENU datum; NaN: the first valid fix is the datum.
-  double datum_lat = kNaN;
-  /// Longitude (deg) of the ENU datum; NaN with datum_lat.
-  double datum_lon = kNaN;
-  /// Ellipsoidal altitude (m) of the ENU datum; NaN with datum_lat.
-  double datum_alt = kNaN;
+  /// Every field at its default from paramTable().
+  Params();
 
-  // --- GNSS input --------------------------------------------------------------------------
-  /// 1-sigma std-dev (m) given to fixes whose covariance is unknown; 0 drops such fixes.
-  double default_std_dev = 0.0;
-  /// Seconds added to every GNSS stamp before matching (receiver clock offset to the SLAM clock).
-  double gnss_time_offset = 0.0;
-  /// A step between fixes that would need more than this speed (m/s) is a position jump of the
-  /// receiver; the fixes that jumped away (until it jumps back) are dropped.
-  double max_gnss_speed = 150.0;
-
-  // --- Keyframe interpolation -------------------------------------------------------------
-  InterpolationMode interpolation = InterpolationMode::kSpline;
-  /// Minimum distance (m) between the GNSS points that support the cubic spline.
-  double min_spacing = 1.0;
-  /// Longest GNSS gap (s) that is interpolated across; poses inside longer gaps get no GNSS.
-  double max_gap = 1.0;
-
-  // --- Control points ---------------------------------------------------------------------
-  /// Number of control points spread by arc length along the trajectory.
-  int control_points = 200;
-  /// Largest GNSS 3D std-dev (m) a control point may have; worse candidates are replaced.
-  double stddev_threshold = 0.1;
-  /// Share of the control points placed by error-driven refinement: round by round, each
-  /// stretch between neighbouring control points gets one more at the usable pose whose
-  /// rubber-sheeted position still deviates most from the GNSS. The rest are spread evenly by
-  /// arc length first. 0 gives the even spread of the published method.
-  double refine_fraction = 0.75;
-  /// Time ranges (s, SLAM clock) from which no control point is taken.
+  // Datum (NaN: the first valid fix is the datum).
+  double datum_lat;
+  double datum_lon;
+  double datum_alt;
+  // GNSS input.
+  double default_std_dev;
+  double gnss_time_offset;
+  double max_gnss_speed;
+  // Keyframe interpolation.
+  InterpolationMode interpolation;
+  double min_spacing;
+  double max_gap;
+  // Control points.
+  int control_points;
+  double stddev_threshold;
+  double refine_fraction;
   std::vector<TimeRange> excluded_ranges;
+  // Rubber sheet: the enclosing cuboid.
+  double margin_x;
+  double margin_y;
+  double margin_z;
+  double margin_min;
+  // Reporting.
+  double max_uncovered_share;
+  // Execution.
+  int threads;
 
-  // --- Rubber sheet -----------------------------------------------------------------------
-  /// Cuboid margin beyond the trajectory extent, as a fraction of the extent per axis.
-  double margin_x = 0.1;
-  double margin_y = 0.1;
-  double margin_z = 10.0;
-  /// Smallest cuboid margin (m) on every axis, so a flat or straight trajectory still gets a
-  /// solid cuboid.
-  double margin_min = 20.0;
-
-  // --- Execution --------------------------------------------------------------------------
-  /// Threads for the map warp; 0: all cores.
-  int threads = 0;
-
-  /// Every problem with the values, joined by "; "; empty when the struct is usable.
+  /// Every problem with the values (ranges from the table, and the rules that tie fields
+  /// together), joined by "; "; empty when the struct is usable.
   std::string validate() const;
+  /// Only the rules that tie fields together (the datum is all three or none).
+  std::string ruleProblems() const;
   bool hasDatum() const;
 };
+
+/// The parameter table of Params.
+const ParamTable<Params>& paramTable();
 
 }  // namespace flexcloud

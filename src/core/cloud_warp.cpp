@@ -2,12 +2,11 @@
 
 #include <cmath>
 #include <cstring>
-#include <thread>
 #include <vector>
 
-namespace flexcloud {
+#include "parallel.h"
 
-std::atomic<bool> g_cancel{false};
+namespace flexcloud {
 
 XyzLayout XyzLayout::of(const pcl::PCLPointCloud2& cloud, const std::string& name) {
   return of(cloud.fields, cloud.point_step, static_cast<std::size_t>(cloud.width) * cloud.height,
@@ -71,14 +70,11 @@ void XyzLayout::set(std::uint8_t* point, const Eigen::Vector3d& p) const {
   }
 }
 
-int resolveThreads(int requested) {
-  if (requested > 0) return requested;
-  return static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-}
+int resolveThreads(int requested) { return threadCount(requested); }
 
 WarpStats warpCloud(pcl::PCLPointCloud2& cloud, const RubberSheet& sheet, int threads,
-                    const std::string& name) {
-  return warpPoints(cloud.data.data(), XyzLayout::of(cloud, name), sheet, threads, name);
+                    const std::string& name, const CancelToken& cancel) {
+  return warpPoints(cloud.data.data(), XyzLayout::of(cloud, name), sheet, threads, name, cancel);
 }
 
 namespace {
@@ -108,13 +104,10 @@ struct AnyXyz {
 
 template <typename Xyz>
 void warpRange(std::uint8_t* data, std::size_t begin, std::size_t end, std::size_t step,
-               const Xyz& xyz, const RubberSheet& sheet, WarpStats& s, std::atomic<bool>& stop) {
+               const Xyz& xyz, const RubberSheet& sheet, WarpStats& s, const CancelToken& cancel) {
   int last = -1;  // the previous point's tetrahedron: maps are stored scan by scan
   for (std::size_t i = begin; i < end; ++i) {
-    if ((i & 0xFFFF) == 0 && g_cancel.load(std::memory_order_relaxed)) {
-      stop = true;
-      return;
-    }
+    if ((i & 0xFFFF) == 0 && cancel.cancelled()) return;
     std::uint8_t* pt = data + i * step;
     const Eigen::Vector3d p = xyz.get(pt);
     ++s.points;
@@ -137,36 +130,38 @@ void warpRange(std::uint8_t* data, std::size_t begin, std::size_t end, std::size
 
 }  // namespace
 
-WarpStats warpPoints(std::uint8_t* data, const XyzLayout& layout, const RubberSheet& sheet,
-                     int threads, const std::string& name) {
+/// Builds the sheet's location grid from a sample of the points, if not built yet.
+static void prepareFor(const std::uint8_t* data, const XyzLayout& layout, const RubberSheet& sheet,
+                int threads) {
+  if (sheet.prepared()) return;
   const std::size_t n = layout.points;
-  if (!sheet.prepared()) {
-    std::vector<Eigen::Vector3d> sample;
-    const std::size_t stride = std::max<std::size_t>(1, n / kSample);
-    sample.reserve(n / stride + 1);
-    for (std::size_t i = 0; i < n; i += stride) sample.push_back(layout.get(data + i * layout.point_step));
-    sheet.prepare(threads, &sample);
+  std::vector<Eigen::Vector3d> sample;
+  const std::size_t stride = std::max<std::size_t>(1, n / kSample);
+  sample.reserve(n / stride + 1);
+  for (std::size_t i = 0; i < n; i += stride) {
+    sample.push_back(layout.get(data + i * layout.point_step));
   }
-  const int workers = std::max(1, std::min<int>(resolveThreads(threads),
-                                                static_cast<int>(n / 65536 + 1)));
+  sheet.prepare(threads, &sample);
+}
+
+WarpStats warpPoints(std::uint8_t* data, const XyzLayout& layout, const RubberSheet& sheet,
+                     int threads, const std::string& name, const CancelToken& cancel) {
+  const std::size_t n = layout.points;
+  prepareFor(data, layout, sheet, threads);
+  // One contiguous range per thread: each keeps the previous point's tetrahedron as its guess.
+  const auto parts = static_cast<std::size_t>(
+      std::max(1, std::min<int>(threadCount(threads), static_cast<int>(n / 65536 + 1))));
   const bool all_float = !layout.is_double[0] && !layout.is_double[1] && !layout.is_double[2];
-  std::vector<WarpStats> part(static_cast<std::size_t>(workers));
-  std::atomic<bool> cancelled{false};
-  auto work = [&](int w) {
-    const std::size_t begin = n * static_cast<std::size_t>(w) / static_cast<std::size_t>(workers);
-    const std::size_t end = n * static_cast<std::size_t>(w + 1) / static_cast<std::size_t>(workers);
-    WarpStats& s = part[static_cast<std::size_t>(w)];
+  std::vector<WarpStats> part(parts);
+  parallelRanges(n, parts, threads, [&](std::size_t k, std::size_t begin, std::size_t end) {
+    WarpStats& s = part[k];
     if (all_float) {
-      warpRange(data, begin, end, layout.point_step, FloatXyz{layout}, sheet, s, cancelled);
+      warpRange(data, begin, end, layout.point_step, FloatXyz{layout}, sheet, s, cancel);
     } else {
-      warpRange(data, begin, end, layout.point_step, AnyXyz{layout}, sheet, s, cancelled);
+      warpRange(data, begin, end, layout.point_step, AnyXyz{layout}, sheet, s, cancel);
     }
-  };
-  std::vector<std::thread> pool;
-  for (int w = 1; w < workers; ++w) pool.emplace_back(work, w);
-  work(0);
-  for (auto& t : pool) t.join();
-  if (cancelled) throw Error(name + ": warp cancelled");
+  });
+  cancel.check(name + ": warp");
   WarpStats total;
   for (const auto& s : part) {
     total.points += s.points;

@@ -199,6 +199,48 @@ Pose warpPose(const RubberSheet& sheet, const Pose& p, int& hint) {
 
 }  // namespace
 
+std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Params& params,
+                                        const WarpStats* map) {
+  std::vector<std::string> out;
+  auto percent = [](double share) { return std::to_string(std::lround(100.0 * share)) + " %"; };
+  const double poses_without =
+      r.poses.empty() ? 0.0 : 1.0 - static_cast<double>(r.poses_matched) / r.poses.size();
+  if (poses_without > params.max_uncovered_share) {
+    out.push_back(percent(poses_without) + " of the poses have no GNSS: they are corrected by " +
+                  "the nearest control points only, or by the rigid transform");
+  }
+  if (map != nullptr && map->points > map->non_finite) {
+    const double outside =
+        static_cast<double>(map->outside) / static_cast<double>(map->points - map->non_finite);
+    if (outside > params.max_uncovered_share) {
+      out.push_back(percent(outside) + " of the map points lie beyond the GNSS coverage: they " +
+                    "got the rigid transform only, without drift correction");
+    }
+  }
+  if (r.revisits.conflicting > 0) {
+    std::ostringstream s;
+    s.precision(3);
+    s << r.revisits.conflicting << " control point pairs revisit places that the SLAM map puts "
+      << "elsewhere on another pass (up to " << r.revisits.worst
+      << " m): close those loops in the SLAM, no warp can merge ghosted passes";
+    out.push_back(s.str());
+  }
+  return out;
+}
+
+Trajectory gnssTrajectory(const GeoreferenceResult& r) {
+  Trajectory t;
+  t.reserve(r.poses_matched);
+  for (std::size_t i = 0; i < r.poses.size(); ++i) {
+    if (!r.gnss_at_pose[i]) continue;
+    Pose p;
+    p.stamp = r.poses[i].stamp;
+    p.position = r.gnss_at_pose[i]->position;
+    t.push_back(p);
+  }
+  return t;
+}
+
 Eigen::Matrix3d nearestRotation(const Eigen::Matrix3d& m) {
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(m, Eigen::ComputeFullU | Eigen::ComputeFullV);
   Eigen::Matrix3d u = svd.matrixU();

@@ -1,7 +1,6 @@
 #include "flexcloud/params.h"
 
 #include <cmath>
-#include <sstream>
 
 namespace flexcloud {
 
@@ -17,73 +16,98 @@ InterpolationMode parseInterpolationMode(const std::string& text) {
 
 namespace {
 
-class Problems {
- public:
-  void require(bool ok, const std::string& what) {
-    if (ok) return;
-    if (!text_.empty()) text_ += "; ";
-    text_ += what;
-  }
-  const std::string& text() const { return text_; }
+using P = Params;
+constexpr double kNaN = Params::kNaN;
 
- private:
-  std::string text_;
-};
-
-std::string num(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
+ParamRow<P> datumRow(const char* name, double P::*m, double min, double max, const char* unit,
+                     const char* doc) {
+  ParamRow<P> r = realRow<P>(name, m, kNaN, min, max, unit, doc);
+  r.spec.nan_unset = true;
+  return r;
 }
 
-bool inRange(double v, double lo, double hi) { return std::isfinite(v) && v >= lo && v <= hi; }
+ParamRow<P> interpolationRow() {
+  ParamSpec spec{"interpolation",
+                 ParamType::kChoice,
+                 {0.0, "spline", {}},
+                 0,
+                 0,
+                 false,
+                 {"spline", "nearest"},
+                 "",
+                 "Keyframe interpolation: cubic through four GNSS points, or the nearest in time",
+                 true};
+  return {spec, [](const P& p) { return ParamValue{0.0, toString(p.interpolation), {}}; },
+          [](P& p, const ParamValue& v) { p.interpolation = parseInterpolationMode(v.text); }};
+}
+
+ParamTable<P> makeTable() {
+  const Live live = Live::kYes;
+  return ParamTable<P>({
+      datumRow("datum_lat", &P::datum_lat, -90, 90, "deg",
+               "Latitude of the ENU datum; unset: the first valid fix is the datum"),
+      datumRow("datum_lon", &P::datum_lon, -180, 180, "deg",
+               "Longitude of the ENU datum; set with datum_lat and datum_alt"),
+      datumRow("datum_alt", &P::datum_alt, -11000, 100000, "m",
+               "Ellipsoidal altitude of the ENU datum; set with datum_lat and datum_lon"),
+      realRow<P>("default_std_dev", &P::default_std_dev, 0.0, 0.0, 1000, "m",
+                 "Std-dev given to fixes whose covariance is unknown; 0 drops such fixes"),
+      realRow<P>("gnss_time_offset", &P::gnss_time_offset, 0.0, -86400, 86400, "s",
+                 "Added to every GNSS stamp before matching (SLAM clock minus GNSS clock)"),
+      realRow<P>("max_gnss_speed", &P::max_gnss_speed, 150.0, 0.1, 10000, "m/s",
+                 "A step between fixes faster than this is a jump; the fixes that jumped away "
+                 "are dropped"),
+      interpolationRow(),
+      realRow<P>("min_spacing", &P::min_spacing, 1.0, 0.0, 100, "m",
+                 "Minimum distance between the GNSS points that support the spline", live),
+      realRow<P>("max_gap", &P::max_gap, 1.0, 0.01, 600, "s",
+                 "Longest GNSS gap interpolated across; poses in longer gaps get no GNSS", live),
+      intRow<P>("control_points", &P::control_points, 200, 4, 100000, "",
+                "Number of control points", live),
+      realRow<P>("stddev_threshold", &P::stddev_threshold, 0.1, 0.001, 100, "m",
+                 "Largest GNSS 3D std-dev of a control point", live),
+      realRow<P>("refine_fraction", &P::refine_fraction, 0.75, 0.0, 1.0, "",
+                 "Share of control points placed by error-driven refinement (0: even spread)",
+                 live),
+      rangesRow<P>("excluded_ranges", &P::excluded_ranges, "s",
+                   "Time ranges (SLAM clock) from which no control point is taken"),
+      realRow<P>("margin_x", &P::margin_x, 0.1, 0.0, 100, "",
+                 "Cuboid margin beyond the trajectory, fraction of the x extent", live),
+      realRow<P>("margin_y", &P::margin_y, 0.1, 0.0, 100, "",
+                 "Cuboid margin beyond the trajectory, fraction of the y extent", live),
+      realRow<P>("margin_z", &P::margin_z, 10.0, 0.0, 100, "",
+                 "Cuboid margin beyond the trajectory, fraction of the z extent", live),
+      realRow<P>("margin_min", &P::margin_min, 20.0, 0.1, 10000, "m",
+                 "Smallest cuboid margin on every axis", live),
+      realRow<P>("max_uncovered_share", &P::max_uncovered_share, 0.1, 0.0, 1.0, "",
+                 "Warn when more than this share of the poses or map points lies outside the "
+                 "GNSS coverage"),
+      intRow<P>("threads", &P::threads, 0, 0, 1024, "", "Threads for the map warp; 0: all cores"),
+  });
+}
 
 }  // namespace
+
+const ParamTable<Params>& paramTable() {
+  static const ParamTable<Params> table = makeTable();
+  return table;
+}
+
+Params::Params() { paramTable().setDefaults(*this); }
 
 bool Params::hasDatum() const {
   return std::isfinite(datum_lat) && std::isfinite(datum_lon) && std::isfinite(datum_alt);
 }
 
-std::string Params::validate() const {
-  Problems p;
+std::string Params::ruleProblems() const {
   const bool none = std::isnan(datum_lat) && std::isnan(datum_lon) && std::isnan(datum_alt);
-  p.require(none || hasDatum(), "datum_lat, datum_lon, datum_alt: give all three or none");
-  if (hasDatum()) {
-    p.require(inRange(datum_lat, -90, 90), "datum_lat " + num(datum_lat) + " is not in [-90, 90]");
-    p.require(inRange(datum_lon, -180, 180),
-              "datum_lon " + num(datum_lon) + " is not in [-180, 180]");
-    p.require(inRange(datum_alt, -11000, 100000),
-              "datum_alt " + num(datum_alt) + " m is not in [-11000, 100000]");
-  }
-  p.require(inRange(default_std_dev, 0, 1000),
-            "default_std_dev " + num(default_std_dev) + " m is not in [0, 1000]");
-  p.require(inRange(gnss_time_offset, -86400, 86400),
-            "gnss_time_offset " + num(gnss_time_offset) + " s is not in [-86400, 86400]");
-  p.require(inRange(max_gnss_speed, 0.1, 10000),
-            "max_gnss_speed " + num(max_gnss_speed) + " m/s is not in [0.1, 10000]");
-  p.require(inRange(min_spacing, 0, 1000),
-            "min_spacing " + num(min_spacing) + " m is not in [0, 1000]");
-  p.require(inRange(max_gap, 1e-3, 3600), "max_gap " + num(max_gap) + " s is not in [0.001, 3600]");
-  p.require(control_points >= 4 && control_points <= 1000000,
-            "control_points " + std::to_string(control_points) + " is not in [4, 1000000]");
-  p.require(inRange(stddev_threshold, 1e-6, 1000),
-            "stddev_threshold " + num(stddev_threshold) + " m is not in [1e-6, 1000]");
-  p.require(inRange(refine_fraction, 0, 1),
-            "refine_fraction " + num(refine_fraction) + " is not in [0, 1]");
-  for (const auto& r : excluded_ranges) {
-    p.require(std::isfinite(r.begin) && std::isfinite(r.end) && r.begin <= r.end,
-              "excluded_ranges [" + num(r.begin) + ", " + num(r.end) +
-                  "] is not a finite range with begin <= end");
-  }
-  for (auto [name, v] : {std::pair{"margin_x", margin_x}, {"margin_y", margin_y},
-                         {"margin_z", margin_z}}) {
-    p.require(inRange(v, 0, 1000), std::string(name) + " " + num(v) + " is not in [0, 1000]");
-  }
-  p.require(inRange(margin_min, 0.01, 1e6),
-            "margin_min " + num(margin_min) + " m is not in [0.01, 1e6]");
-  p.require(threads >= 0 && threads <= 1024,
-            "threads " + std::to_string(threads) + " is not in [0, 1024]");
-  return p.text();
+  return none || hasDatum() ? "" : "datum_lat, datum_lon, datum_alt: give all three or none";
+}
+
+std::string Params::validate() const {
+  const std::string ranges = paramTable().validate(*this);
+  const std::string rules = ruleProblems();
+  return ranges.empty() ? rules : rules.empty() ? ranges : ranges + "; " + rules;
 }
 
 }  // namespace flexcloud

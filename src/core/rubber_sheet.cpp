@@ -10,7 +10,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <thread>
 
 #include "cell_hash.h"
 #include "tet_locator.h"
@@ -182,9 +181,7 @@ RubberSheet::~RubberSheet() = default;
 
 void RubberSheet::prepare(int threads, const std::vector<Eigen::Vector3d>* sample) const {
   std::call_once(grid_once_, [&] {
-    locator_->build(
-        threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())),
-        sample);
+    locator_->build(threads, sample);
     prepared_.store(true, std::memory_order_release);
   });
 }

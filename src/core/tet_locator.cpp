@@ -1,10 +1,11 @@
 #include "tet_locator.h"
 
+#include "parallel.h"
+
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 
 #include <algorithm>
 #include <cmath>
-#include <thread>
 
 namespace flexcloud {
 namespace {
@@ -15,20 +16,6 @@ constexpr std::size_t kMaxCells = 1 << 21;
 constexpr std::size_t kSubBudget = 1 << 21;  // sub-cells in all blocks (4 + up to 16 bytes each)
 constexpr int kMaxSub = 16;
 constexpr double kFullEnough = 0.8;  // stop refining a block once this share is full
-
-/// Runs f(begin, end) over [0, n) split into `threads` contiguous parts.
-template <typename F>
-void parallelFor(std::size_t n, int threads, F f) {
-  const auto t = static_cast<std::size_t>(std::max(1, threads));
-  if (t == 1 || n < 2) {
-    f(std::size_t{0}, n);
-    return;
-  }
-  std::vector<std::thread> pool;
-  for (std::size_t k = 1; k < t; ++k) pool.emplace_back(f, n * k / t, n * (k + 1) / t);
-  f(std::size_t{0}, n / t);
-  for (auto& th : pool) th.join();
-}
 
 }  // namespace
 
@@ -195,7 +182,7 @@ void TetLocator::build(int threads, const std::vector<Eigen::Vector3d>* sample) 
   const int nx = n_.x() + 1, ny = n_.y() + 1, nz = n_.z() + 1;
   // Level 1: locate every grid vertex; each thread walks its slabs, starting where it ended.
   std::vector<Location> vertex(static_cast<std::size_t>(nx) * ny * nz);
-  parallelFor(static_cast<std::size_t>(nz), threads, [&](std::size_t z0, std::size_t z1) {
+  parallelRanges(static_cast<std::size_t>(nz), static_cast<std::size_t>(threadCount(threads)), threads, [&](std::size_t, std::size_t z0, std::size_t z1) {
     int hint = 0;
     for (auto z = static_cast<int>(z0); z < static_cast<int>(z1); ++z) {
       for (int y = 0; y < ny; ++y) {
@@ -248,7 +235,7 @@ void TetLocator::build(int threads, const std::vector<Eigen::Vector3d>* sample) 
       std::floor(std::cbrt(static_cast<double>(kSubBudget) / std::max<std::size_t>(1, busy))),
       1.0, static_cast<double>(kMaxSub)));
   std::vector<SubBlock> subs(mixed.size());
-  parallelFor(mixed.size(), threads, [&](std::size_t b0, std::size_t b1) {
+  parallelRanges(mixed.size(), static_cast<std::size_t>(threadCount(threads)), threads, [&](std::size_t, std::size_t b0, std::size_t b1) {
     for (std::size_t b = b0; b < b1; ++b) {
       const auto& c = mixed[b];
       if (c[3] < 0) {  // no sample point here: a single sub-cell, a start for the walk

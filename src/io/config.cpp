@@ -2,22 +2,37 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include <algorithm>
+#include <cmath>
 
-#include "flexcloud/io/param_table.h"
 #include "flexcloud/io/text_io.h"
 
 namespace flexcloud {
+namespace {
 
-const std::vector<std::string>& nodeOnlyKeys() {
-  // The fields of NodeParams (include/flexcloud/ros/node_params.h) beyond the core ones.
-  static const std::vector<std::string> keys = {
-      "enu_frame",       "map_frame",    "odom_type",  "bag", "map_file", "georeference_on_bag_end",
-      "recompute_delay", "max_messages", "queue_size"};
-  return keys;
+ParamValue rangesFromYaml(const YAML::Node& v) {
+  ParamValue out;
+  if (!v.IsSequence()) throw Error("expected a list of [begin, end] pairs");
+  for (const auto& r : v) {
+    if (!r.IsSequence() || r.size() != 2) throw Error("expected a list of [begin, end] pairs");
+    out.ranges.push_back({r[0].as<double>(), r[1].as<double>()});
+  }
+  return out;
 }
 
-void loadParamsYaml(const std::string& path, Params& params) {
+ParamValue valueFromYaml(const ParamSpec& spec, const YAML::Node& v) {
+  if (spec.type == ParamType::kRanges) return rangesFromYaml(v);
+  if (!v.IsScalar()) throw Error("expected a single value");
+  const std::string& text = v.Scalar();
+  if (spec.type == ParamType::kReal && (text == ".nan" || text == ".NaN" || text == ".NAN")) {
+    return ParamValue{std::nan(""), "", {}};
+  }
+  return parseValue(spec, text);
+}
+
+}  // namespace
+
+std::vector<std::pair<std::string, ParamValue>> readParamYaml(
+    const std::string& path, const std::function<const ParamSpec*(const std::string&)>& find) {
   const std::string text = readWholeFile(path);
   YAML::Node root;
   try {
@@ -25,26 +40,15 @@ void loadParamsYaml(const std::string& path, Params& params) {
   } catch (const YAML::Exception& e) {
     throw Error(path + ": not valid YAML: " + e.what());
   }
-  if (root.IsNull()) return;
+  std::vector<std::pair<std::string, ParamValue>> out;
+  if (root.IsNull()) return out;
   if (!root.IsMap()) throw Error(path + ": expected a map of key: value");
   for (const auto& kv : root) {
     const std::string key = kv.first.as<std::string>();
-    const YAML::Node& v = kv.second;
+    const ParamSpec* spec = find(key);
+    if (spec == nullptr) throw Error(path + ": unknown parameter '" + key + "'");
     try {
-      if (key == "excluded_ranges") {
-        params.excluded_ranges.clear();
-        if (!v.IsSequence()) throw Error("expected a list of [begin, end] pairs");
-        for (const auto& r : v) {
-          if (!r.IsSequence() || r.size() != 2) throw Error("expected a list of [begin, end] pairs");
-          params.excluded_ranges.push_back({r[0].as<double>(), r[1].as<double>()});
-        }
-      } else if (std::find(nodeOnlyKeys().begin(), nodeOnlyKeys().end(), key) !=
-                 nodeOnlyKeys().end()) {
-        continue;
-      } else {
-        if (!v.IsScalar()) throw Error("expected a single value");
-        setParam(params, key, v.Scalar());
-      }
+      out.emplace_back(key, valueFromYaml(*spec, kv.second));
     } catch (const YAML::Exception& e) {
       throw Error(path + ": " + key + ": " + e.what());
     } catch (const Error& e) {
@@ -52,6 +56,7 @@ void loadParamsYaml(const std::string& path, Params& params) {
       throw Error(path + ": " + (what.rfind(key, 0) == 0 ? what : key + ": " + what));
     }
   }
+  return out;
 }
 
 }  // namespace flexcloud

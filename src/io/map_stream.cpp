@@ -99,13 +99,13 @@ class MapJob {
 
   /// Warps points [first, first + n) held at `data`, comparing with the truth before and after.
   void warp(std::uint8_t* data, std::size_t first, std::size_t n) {
-    if (g_cancel) throw Error(in_ + ": warp cancelled");
+    options_.cancel->check(in_ + ": warp");
     const std::uint8_t* t = truth_ ? truth_->chunk(first, n) : nullptr;
     if (t) compare(data, t, n, options_.T_enu_map, aligned_);
     const auto t0 = Clock::now();
     XyzLayout part = layout_;
     part.points = n;
-    const WarpStats s = warpPoints(data, part, sheet_, options_.threads, in_);
+    const WarpStats s = warpPoints(data, part, sheet_, options_.threads, in_, *options_.cancel);
     info_.warp_seconds += since(t0);
     info_.warp.points += s.points;
     info_.warp.outside += s.outside;

@@ -9,8 +9,6 @@
 #include <sstream>
 
 #include "flexcloud/io/atomic_file.h"
-#include "flexcloud/io/memory.h"
-#include "flexcloud/io/param_table.h"
 #include "flexcloud/io/text_io.h"
 
 namespace flexcloud {
@@ -24,23 +22,30 @@ json stats(const ErrorStats& s) {
 }
 
 json paramsJson(const Params& params) {
-  Params p = params;
   json j;
-  for (const auto& ref : paramRefs(p)) {
-    switch (ref.kind) {
-      case ParamRef::Kind::kDouble:
-        j[ref.name] = std::isfinite(*ref.d) ? json(*ref.d) : json(nullptr);
+  for (const auto& row : paramTable().rows()) {
+    const ParamValue v = row.get(params);
+    json& out = j[row.spec.name];
+    switch (row.spec.type) {
+      case ParamType::kReal:
+        out = std::isfinite(v.number) ? json(v.number) : json(nullptr);
         break;
-      case ParamRef::Kind::kInt:
-        j[ref.name] = *ref.i;
+      case ParamType::kInt:
+        out = static_cast<long long>(v.number);
         break;
-      case ParamRef::Kind::kInterpolation:
-        j[ref.name] = toString(*ref.mode);
+      case ParamType::kBool:
+        out = v.number != 0.0;
+        break;
+      case ParamType::kText:
+      case ParamType::kChoice:
+        out = v.text;
+        break;
+      case ParamType::kRanges:
+        out = json::array();
+        for (const auto& r : v.ranges) out.push_back({r.begin, r.end});
         break;
     }
   }
-  j["excluded_ranges"] = json::array();
-  for (const auto& r : p.excluded_ranges) j["excluded_ranges"].push_back({r.begin, r.end});
   return j;
 }
 
@@ -81,8 +86,9 @@ class Staging {
 
 }  // namespace
 
-std::string reportJson(const GeoreferenceResult& r, const Params& params, const MapInfo* map,
-                       const FrameNames& frames) {
+std::string reportJson(const GeoreferenceResult& r, const Params& params, const RunContext& run) {
+  const MapInfo* map = run.map;
+  const FrameNames& frames = run.frames;
   json j;
   j["tool"] = "flexcloud";
   j["frames"] = {{"enu", frames.enu}, {"map", frames.map}};
@@ -145,7 +151,7 @@ std::string reportJson(const GeoreferenceResult& r, const Params& params, const 
                   {"map_location_grid", map ? map->grid_seconds : 0.0},
                   {"map_warp", map ? map->warp_seconds : 0.0},
                   {"map_write", map ? map->write_seconds : 0.0}};
-  j["peak_memory_mb"] = peakMemoryMb();
+  j["peak_memory_mb"] = run.peak_memory_mb >= 0.0 ? json(run.peak_memory_mb) : json(nullptr);
   return j.dump(2) + "\n";
 }
 
@@ -187,20 +193,10 @@ std::string controlPointsText(const GeoreferenceResult& r) {
   return s.str();
 }
 
-std::string gnssTum(const GeoreferenceResult& r) {
-  Trajectory t;
-  for (std::size_t i = 0; i < r.poses.size(); ++i) {
-    if (!r.gnss_at_pose[i]) continue;
-    Pose p;
-    p.stamp = r.poses[i].stamp;
-    p.position = r.gnss_at_pose[i]->position;
-    t.push_back(p);
-  }
-  return formatTum(t);
-}
+std::string gnssTum(const GeoreferenceResult& r) { return formatTum(gnssTrajectory(r)); }
 
 void writeOutputs(const std::string& dir, const GeoreferenceResult& r, const Params& params,
-                  const MapWriter& write_map, const MapInfo* map_info, const FrameNames& frames) {
+                  const MapWriter& write_map, const RunContext& run) {
   Staging stage(dir);
   if (write_map) write_map(stage.path("map_georeferenced.pcd"));
   writeTextFile(stage.path("trajectory_gnss.txt"), gnssTum(r));
@@ -208,9 +204,9 @@ void writeOutputs(const std::string& dir, const GeoreferenceResult& r, const Par
   writeTextFile(stage.path("trajectory_aligned.txt"), formatTum(r.aligned));
   writeTextFile(stage.path("trajectory_rubbersheet.txt"), formatTum(r.rubbersheet));
   writeTextFile(stage.path("control_points.txt"), controlPointsText(r));
-  writeTextFile(stage.path("origin.yaml"), originYaml(r, frames));
-  writeTextFile(stage.path("report.json"), reportJson(r, params, map_info, frames));
-  if (g_cancel) throw Error(dir + ": interrupted before the outputs were moved into place");
+  writeTextFile(stage.path("origin.yaml"), originYaml(r, run.frames));
+  writeTextFile(stage.path("report.json"), reportJson(r, params, run));
+  run.cancel->check(dir + ": before the outputs were moved into place");
   stage.commit();
 }
 

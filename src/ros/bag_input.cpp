@@ -32,10 +32,10 @@ std::string listing(const std::map<std::string, std::string>& types) {
 /// The topic to read for one input: the given one (checked) or the only one of a fitting type.
 std::string resolve(const std::string& bag, const std::map<std::string, std::string>& types,
                     const std::string& given, const std::set<std::string>& fitting,
-                    const std::string& what, const std::string& option) {
+                    const std::string& what, const std::string& option, bool fall_back) {
   std::string expected;
   for (const auto& t : fitting) expected += (expected.empty() ? "" : " or ") + t;
-  if (!given.empty()) {
+  if (!given.empty() && !(fall_back && types.count(absolute(given)) == 0)) {
     const std::string topic = absolute(given);
     const auto it = types.find(topic);
     if (it == types.end()) {
@@ -87,13 +87,16 @@ BagSummary readBag(const std::string& path, const BagTopics& topics, DriveCollec
       rosbag::View all(bag);
       for (const auto* c : all.getConnections()) types[c->topic] = c->datatype;
     }
-    out.fix_topic = resolve(path, types, topics.fix, {kFixType}, "GNSS fix", "--fix-topic");
+    const bool fall_back = topics.fall_back_by_type;
+    out.fix_topic =
+        resolve(path, types, topics.fix, {kFixType}, "GNSS fix", "--fix-topic", fall_back);
     out.odom_topic = resolve(path, types, topics.odom, {kOdomType, kPoseType, kPathType},
-                             "odometry", "--odom-topic");
+                             "odometry", "--odom-topic", fall_back);
     out.odom_type = types.at(out.odom_topic);
     std::vector<std::string> read{out.fix_topic, out.odom_topic};
     if (!topics.map.empty()) {
-      out.map_topic = resolve(path, types, topics.map, {kCloudType}, "map", "--map-topic");
+      out.map_topic =
+          resolve(path, types, topics.map, {kCloudType}, "map", "--map-topic", false);
       read.push_back(out.map_topic);
     }
     rosbag::View view(bag, rosbag::TopicQuery(read));

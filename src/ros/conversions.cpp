@@ -89,6 +89,26 @@ geometry_msgs::Pose toPoseMsg(const Eigen::Isometry3d& t) {
   return m;
 }
 
+geometry_msgs::Transform toTransformMsg(const Eigen::Isometry3d& t) {
+  const geometry_msgs::Pose pose = toPoseMsg(t);
+  geometry_msgs::Transform m;
+  m.translation.x = pose.position.x;
+  m.translation.y = pose.position.y;
+  m.translation.z = pose.position.z;
+  m.rotation = pose.orientation;
+  return m;
+}
+
+flexcloud::Deviation toDeviationMsg(const ErrorStats& s) {
+  flexcloud::Deviation d;
+  d.mae = s.mae;
+  d.std = s.std;
+  d.max = s.max;
+  d.rmse = s.rmse;
+  d.count = static_cast<std::uint32_t>(s.count);
+  return d;
+}
+
 nav_msgs::Odometry toOdometry(const Pose& pose, const std::string& frame_id,
                               const std::string& child_frame_id) {
   nav_msgs::Odometry m;
@@ -120,19 +140,6 @@ nav_msgs::Path toPath(const Trajectory& poses, const std::string& frame_id) {
   return m;
 }
 
-nav_msgs::Path toPath(const std::vector<Eigen::Vector3d>& positions,
-                      const std::vector<double>& stamps, const std::string& frame_id) {
-  Trajectory t;
-  t.reserve(positions.size());
-  for (std::size_t i = 0; i < positions.size(); ++i) {
-    Pose p;
-    p.stamp = stamps[i];
-    p.position = positions[i];
-    t.push_back(p);
-  }
-  return toPath(t, frame_id);
-}
-
 void toCloudMsg(const pcl::PCLPointCloud2& cloud, const std::string& frame_id,
                 sensor_msgs::PointCloud2& msg) {
   pcl_conversions::fromPCL(cloud, msg);
@@ -141,6 +148,17 @@ void toCloudMsg(const pcl::PCLPointCloud2& cloud, const std::string& frame_id,
 
 void fromCloudMsg(const sensor_msgs::PointCloud2& msg, pcl::PCLPointCloud2& cloud) {
   pcl_conversions::toPCL(msg, cloud);
+}
+
+std::vector<pcl::PCLPointField> pclFields(const sensor_msgs::PointCloud2& msg) {
+  std::vector<pcl::PCLPointField> fields;
+  pcl_conversions::toPCL(msg.fields, fields);
+  return fields;
+}
+
+XyzLayout xyzLayout(const sensor_msgs::PointCloud2& msg, const std::string& name) {
+  return XyzLayout::of(pclFields(msg), msg.point_step,
+                       static_cast<std::size_t>(msg.width) * msg.height, msg.data.size(), name);
 }
 
 }  // namespace flexcloud::ros_conv

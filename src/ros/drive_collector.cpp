@@ -14,6 +14,11 @@ void DriveCollector::pushBounded(std::vector<T>& v, T item) {
   v.push_back(std::move(item));
 }
 
+void DriveCollector::setLimit(std::size_t max_messages) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  max_ = max_messages;
+}
+
 void DriveCollector::setFrame(const std::string& frame) {
   if (!frame.empty()) frame_ = frame;
 }

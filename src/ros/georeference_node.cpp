@@ -1,101 +1,53 @@
 #include "flexcloud/ros/georeference_node.h"
 
-#include <geometry_msgs/TransformStamped.h>
-#include <nav_msgs/Path.h>
 #include <pcl_conversions/pcl_conversions.h>
-#include <visualization_msgs/MarkerArray.h>
 
-#include "flexcloud/io/param_table.h"
+#include <filesystem>
+
 #include "flexcloud/io/pcd_io.h"
 #include "flexcloud/ros/bag_input.h"
 #include "flexcloud/ros/conversions.h"
-#include "flexcloud/ros/markers.h"
 
 namespace flexcloud {
 namespace {
 
-flexcloud::Deviation toMsg(const ErrorStats& s) {
-  flexcloud::Deviation d;
-  d.mae = s.mae;
-  d.std = s.std;
-  d.max = s.max;
-  d.rmse = s.rmse;
-  d.count = static_cast<std::uint32_t>(s.count);
-  return d;
-}
-
-flexcloud::Georeference::Response failure(const std::string& message) {
-  flexcloud::Georeference::Response r;
-  r.success = false;
-  r.message = message;
-  return r;
-}
-
-XyzLayout layoutOf(const sensor_msgs::PointCloud2& msg, const std::string& name) {
-  std::vector<pcl::PCLPointField> fields;
-  pcl_conversions::toPCL(msg.fields, fields);
-  return XyzLayout::of(fields, msg.point_step, static_cast<std::size_t>(msg.width) * msg.height,
-                       msg.data.size(), name);
-}
-
-/// Stops a bag read when the node shuts down.
+/// Stops a bag read when the node shuts down or resets.
 struct BagStopped {};
 
-void toConfig(const Params& p, GeoreferenceConfig& c) {
-  c.control_points = p.control_points;
-  c.refine_fraction = p.refine_fraction;
-  c.stddev_threshold = p.stddev_threshold;
-  c.margin_x = p.margin_x;
-  c.margin_y = p.margin_y;
-  c.margin_z = p.margin_z;
-  c.margin_min = p.margin_min;
-  c.interpolation = toString(p.interpolation);
-  c.min_spacing = p.min_spacing;
-  c.max_gap = p.max_gap;
-}
-
-/// The tunable fields of the config over `p`; throws Error for an unknown interpolation.
-Params fromConfig(const GeoreferenceConfig& c, Params p) {
-  p.control_points = c.control_points;
-  p.refine_fraction = c.refine_fraction;
-  p.stddev_threshold = c.stddev_threshold;
-  p.margin_x = c.margin_x;
-  p.margin_y = c.margin_y;
-  p.margin_z = c.margin_z;
-  p.margin_min = c.margin_min;
-  p.interpolation = parseInterpolationMode(c.interpolation);
-  p.min_spacing = c.min_spacing;
-  p.max_gap = c.max_gap;
-  return p;
-}
-
-bool sameScalars(Params a, Params b) {
-  const auto ra = paramRefs(a), rb = paramRefs(b);
-  for (std::size_t i = 0; i < ra.size(); ++i) {
-    if (ra[i].d && *ra[i].d != *rb[i].d && !(std::isnan(*ra[i].d) && std::isnan(*rb[i].d))) return false;
-    if (ra[i].i && *ra[i].i != *rb[i].i) return false;
-    if (ra[i].mode && *ra[i].mode != *rb[i].mode) return false;
-  }
-  return true;
+flexcloud::Result failed(const std::string& message) {
+  return toResultMsg(nullptr, false, message);
 }
 
 }  // namespace
 
 GeoreferenceNode::GeoreferenceNode(ros::NodeHandle nh, ros::NodeHandle pnh)
-    : nh_(nh), pnh_(pnh), service_nh_(pnh), name_(pnh.getNamespace()),
-      params_(loadNodeParams(pnh)), collector_(static_cast<std::size_t>(params_.max_messages)) {
+    : nh_(nh), pnh_(pnh), service_nh_(pnh), name_(pnh.getNamespace()) {
   // Services get their own queue and two threads: a georeference call waits for the worker
   // while the subscribers keep running, and a second call is answered (refused) at once.
   service_nh_.setCallbackQueue(&service_queue_);
-  advertise();
-  reconfigure_ = std::make_unique<dynamic_reconfigure::Server<GeoreferenceConfig>>(config_mutex_, pnh_);
-  pushConfig(params_.core);
+  try {
+    params_ = loadNodeParams(pnh);
+  } catch (const Error& e) {
+    startup_error_ = std::string("not started: ") + e.what();
+    ROS_FATAL("%s: %s", name_.c_str(), startup_error_.c_str());
+  }
+  advertiseServices();
+  if (startup_error_.empty()) start();
+  service_spinner_ = std::make_unique<ros::AsyncSpinner>(2, &service_queue_);
+  service_spinner_->start();
+}
+
+void GeoreferenceNode::start() {
+  collector_.setLimit(static_cast<std::size_t>(params_.max_messages));
+  publisher_ = std::make_unique<ResultPublisher>(pnh_);
+  publisher_->report(toResultMsg(nullptr, true, "no result yet"));
+  reconfigure_ =
+      std::make_unique<dynamic_reconfigure::Server<GeoreferenceConfig>>(config_mutex_, pnh_);
+  pushConfig(params_);
   reconfigure_->setCallback(
       [this](GeoreferenceConfig& c, uint32_t level) { onReconfigure(c, level); });
   subscribe();
   worker_ = std::thread([this] { workerLoop(); });
-  service_spinner_ = std::make_unique<ros::AsyncSpinner>(2, &service_queue_);
-  service_spinner_->start();
   ROS_INFO("%s: ready (%s input, %d control points, std-dev threshold %.3f m)", name_.c_str(),
            params_.bag.empty() ? "live" : ("bag " + params_.bag).c_str(),
            params_.core.control_points, params_.core.stddev_threshold);
@@ -105,11 +57,12 @@ GeoreferenceNode::~GeoreferenceNode() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stop_ = true;
+    bag_stop_ = true;
+    if (run_cancel_) run_cancel_->cancel();  // a run in progress stops at its next check
   }
   wake_.notify_all();
-  // The worker finishes a run in progress and answers a waiting call before it ends, so no
-  // service thread is left waiting when the spinner stops; then no callback may start once the
-  // members it uses begin to go.
+  // The worker answers a waiting call before it ends, so no service thread is left waiting
+  // when the spinner stops; then no callback may start once the members it uses begin to go.
   if (bag_thread_.joinable()) bag_thread_.join();
   if (worker_.joinable()) worker_.join();
   for (auto& s : subscribers_) s.shutdown();
@@ -117,338 +70,6 @@ GeoreferenceNode::~GeoreferenceNode() {
   service_nh_.shutdown();
   if (service_spinner_) service_spinner_->stop();
   reconfigure_.reset();
-}
-
-void GeoreferenceNode::advertise() {
-  map_pub_ = pnh_.advertise<sensor_msgs::PointCloud2>("global_map", 1, true);
-  origin_pub_ = pnh_.advertise<sensor_msgs::NavSatFix>("origin", 1, true);
-  path_gnss_pub_ = pnh_.advertise<nav_msgs::Path>("path_gnss", 1, true);
-  path_slam_pub_ = pnh_.advertise<nav_msgs::Path>("path_slam", 1, true);
-  path_aligned_pub_ = pnh_.advertise<nav_msgs::Path>("path_aligned", 1, true);
-  path_sheet_pub_ = pnh_.advertise<nav_msgs::Path>("path_rubbersheet", 1, true);
-  cp_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("control_points", 1, true);
-  tet_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("tetrahedra", 1, true);
-  dev_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("deviation", 1, true);
-  services_.push_back(
-      service_nh_.advertiseService("georeference", &GeoreferenceNode::onGeoreference, this));
-  services_.push_back(service_nh_.advertiseService("save", &GeoreferenceNode::onSave, this));
-  services_.push_back(service_nh_.advertiseService("reset", &GeoreferenceNode::onReset, this));
-}
-
-void GeoreferenceNode::subscribe() {
-  const int q = params_.queue_size;
-  if (!params_.bag.empty()) {
-    bag_done_ = false;
-    bag_thread_ = std::thread([this] { readBagThread(); });
-  } else {
-    using namespace sensor_msgs;
-    subscribers_.push_back(nh_.subscribe<NavSatFix>(
-        "fix", q, boost::function<void(const NavSatFixConstPtr&)>(
-                      [this](const NavSatFixConstPtr& m) { collector_.handleFix(*m); })));
-    if (params_.odom_type == "odometry") {
-      subscribers_.push_back(nh_.subscribe<nav_msgs::Odometry>(
-          "odom", q, boost::function<void(const nav_msgs::OdometryConstPtr&)>(
-                         [this](const nav_msgs::OdometryConstPtr& m) { collector_.handleOdometry(*m); })));
-    } else if (params_.odom_type == "pose") {
-      subscribers_.push_back(nh_.subscribe<geometry_msgs::PoseStamped>(
-          "odom", q, boost::function<void(const geometry_msgs::PoseStampedConstPtr&)>(
-                         [this](const geometry_msgs::PoseStampedConstPtr& m) { collector_.handlePose(*m); })));
-    } else {
-      subscribers_.push_back(nh_.subscribe<nav_msgs::Path>(
-          "odom", q, boost::function<void(const nav_msgs::PathConstPtr&)>(
-                         [this](const nav_msgs::PathConstPtr& m) { collector_.handlePath(*m); })));
-    }
-  }
-  if (params_.map_file.empty()) {
-    subscribers_.push_back(nh_.subscribe("map", 1, &GeoreferenceNode::onMap, this));
-  }
-}
-
-void GeoreferenceNode::onMap(const sensor_msgs::PointCloud2ConstPtr& msg) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  map_ = msg;  // a run in progress keeps the cloud it started with
-}
-
-void GeoreferenceNode::readBagThread() {
-  BagTopics topics;
-  topics.fix = nh_.resolveName("fix");
-  topics.odom = nh_.resolveName("odom");
-  pcl::PCLPointCloud2 cloud;
-  std::string error;
-  try {
-    const BagSummary s = flexcloud::readBag(params_.bag, topics, collector_, nullptr, [this](double) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (stop_) throw BagStopped{};
-    });
-    ROS_INFO("%s: read %zu fixes and %zu poses from %s", name_.c_str(), s.fixes, s.poses,
-             params_.bag.c_str());
-  } catch (const BagStopped&) {
-    return;
-  } catch (const Error& e) {
-    error = e.what();
-    ROS_ERROR("%s: %s", name_.c_str(), error.c_str());
-  }
-  std::lock_guard<std::mutex> lock(mutex_);
-  bag_done_ = true;
-  bag_error_ = error;
-  if (error.empty() && params_.georeference_on_bag_end && !busy_ && !service_job_) {
-    service_job_ = Job{params_.core, nullptr};
-    wake_.notify_all();
-  }
-}
-
-void GeoreferenceNode::loadMapFile() {
-  std::string error;
-  sensor_msgs::PointCloud2Ptr msg(new sensor_msgs::PointCloud2);
-  try {
-    pcl::PCLPointCloud2 cloud = readPcd(params_.map_file);
-    pcl_conversions::moveFromPCL(cloud, *msg);
-    layoutOf(*msg, params_.map_file);
-    ROS_INFO("%s: loaded %u points from %s", name_.c_str(), msg->width * msg->height,
-             params_.map_file.c_str());
-  } catch (const Error& e) {
-    error = "map_file " + std::string(e.what());
-    ROS_ERROR("%s: %s", name_.c_str(), error.c_str());
-  }
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (error.empty()) map_ = msg;
-  map_error_ = error;
-}
-
-void GeoreferenceNode::workerLoop() {
-  if (!params_.map_file.empty()) loadMapFile();
-  while (true) {
-    Job job;
-    {
-      std::unique_lock<std::mutex> lock(mutex_);
-      while (!stop_ && !service_job_ &&
-             !(recompute_pending_ && std::chrono::steady_clock::now() >= recompute_at_)) {
-        if (recompute_pending_) {
-          wake_.wait_until(lock, recompute_at_);
-        } else {
-          wake_.wait(lock);
-        }
-      }
-      if (stop_) break;
-      if (service_job_) {
-        job = std::move(*service_job_);
-        service_job_.reset();
-      } else {
-        job.params = params_.core;  // the latest setting wins
-      }
-      recompute_pending_ = false;
-      busy_ = true;
-    }
-    flexcloud::Georeference::Response reply;
-    std::shared_ptr<const State> state;
-    try {
-      state = run(job.params);
-      reply = describe(*state);
-    } catch (const std::exception& e) {
-      reply = failure(e.what());
-      ROS_ERROR("%s: georeferencing failed: %s", name_.c_str(), e.what());
-    }
-    if (state) publish(*state);
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (state) state_ = state;
-      busy_ = false;
-    }
-    if (job.reply) job.reply->set_value(reply);
-  }
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (service_job_ && service_job_->reply) {
-    service_job_->reply->set_value(failure("the node is shutting down"));
-  }
-  service_job_.reset();
-}
-
-std::shared_ptr<const GeoreferenceNode::State> GeoreferenceNode::run(const Params& params) {
-  const auto t0 = std::chrono::steady_clock::now();
-  auto s = std::make_shared<State>();
-  const DriveInput input = collector_.snapshot();
-  if (input.fixes.empty()) {
-    throw Error("no GNSS fix received yet on " +
-                (params_.bag.empty() ? nh_.resolveName("fix") : params_.bag));
-  }
-  if (input.poses.empty()) {
-    throw Error("no pose received yet on " +
-                (params_.bag.empty() ? nh_.resolveName("odom") : params_.bag));
-  }
-  s->result = flexcloud::georeference(input, params);
-  s->params = params;
-  s->frames.enu = params_.enu_frame;
-  s->frames.map = !params_.map_frame.empty() ? params_.map_frame
-                  : !collector_.mapFrame().empty() ? collector_.mapFrame()
-                                                   : std::string("map");
-  sensor_msgs::PointCloud2ConstPtr map;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (!map_error_.empty()) throw Error(map_error_);
-    map = map_;
-  }
-  if (map) {
-    const auto tw = std::chrono::steady_clock::now();
-    sensor_msgs::PointCloud2Ptr warped(new sensor_msgs::PointCloud2(*map));
-    const XyzLayout layout = layoutOf(*warped, params_.map_file.empty() ? "map topic" : params_.map_file);
-    s->map_info.input = params_.map_file.empty() ? nh_.resolveName("map") : params_.map_file;
-    s->map_info.warp = warpPoints(warped->data.data(), layout, *s->result.sheet, params.threads);
-    s->map_info.warp_seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - tw).count();
-    warped->header.frame_id = params_.enu_frame;
-    warped->header.stamp = ros::Time::now();
-    s->map = warped;
-  }
-  s->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  return s;
-}
-
-void GeoreferenceNode::publish(const State& s) {
-  const auto& r = s.result;
-  const ros::Time now = ros::Time::now();
-  const std::string& enu = s.frames.enu;
-  if (s.map) map_pub_.publish(s.map);
-  geometry_msgs::TransformStamped tf;
-  tf.header.stamp = now;
-  tf.header.frame_id = enu;
-  tf.child_frame_id = s.frames.map;
-  const geometry_msgs::Pose pose = ros_conv::toPoseMsg(r.T_enu_map);
-  tf.transform.translation.x = pose.position.x;
-  tf.transform.translation.y = pose.position.y;
-  tf.transform.translation.z = pose.position.z;
-  tf.transform.rotation = pose.orientation;
-  tf_.sendTransform(tf);
-  if (r.datum) {
-    RawFix origin;
-    origin.fix = GeoFix{now.toSec(), r.datum->lat, r.datum->lon, r.datum->alt,
-                        Eigen::Vector3d::Zero()};
-    auto msg = ros_conv::toNavSatFix(origin, enu);
-    msg.position_covariance_type = sensor_msgs::NavSatFix::COVARIANCE_TYPE_UNKNOWN;
-    origin_pub_.publish(msg);
-  }
-  std::vector<Eigen::Vector3d> gnss;
-  std::vector<double> stamps;
-  for (std::size_t i = 0; i < r.poses.size(); ++i) {
-    if (!r.gnss_at_pose[i]) continue;
-    gnss.push_back(r.gnss_at_pose[i]->position);
-    stamps.push_back(r.poses[i].stamp);
-  }
-  path_gnss_pub_.publish(ros_conv::toPath(gnss, stamps, enu));
-  path_slam_pub_.publish(ros_conv::toPath(r.poses, s.frames.map));
-  path_aligned_pub_.publish(ros_conv::toPath(r.aligned, enu));
-  path_sheet_pub_.publish(ros_conv::toPath(r.rubbersheet, enu));
-  cp_pub_.publish(markers::controlPoints(r, enu, now));
-  tet_pub_.publish(markers::tetrahedra(r, enu, now));
-  dev_pub_.publish(markers::deviation(r, enu, now));
-  ROS_INFO("%s: georeferenced %zu poses with %zu control points: MAE %.3f m (rigid only %.3f m)%s",
-           name_.c_str(), r.poses.size(), r.control_points.points.size(),
-           r.metrics_rubbersheet.mae, r.metrics_aligned.mae,
-           s.map ? (", map of " + std::to_string(s.map_info.warp.points) + " points").c_str() : "");
-}
-
-flexcloud::Georeference::Response GeoreferenceNode::describe(const State& s) const {
-  const auto& r = s.result;
-  flexcloud::Georeference::Response res;
-  res.success = true;
-  res.message = "georeferenced " + std::to_string(r.poses.size()) + " poses with " +
-                std::to_string(r.control_points.points.size()) + " control points" +
-                (s.map ? " and a map of " + std::to_string(s.map_info.warp.points) + " points"
-                       : " (no map yet)") +
-                (r.revisits.conflicting > 0
-                     ? "; warning: " + std::to_string(r.revisits.conflicting) +
-                           " control point pairs revisit places the SLAM map puts elsewhere on "
-                           "another pass: close those loops in the SLAM"
-                     : std::string());
-  res.fixes_used = static_cast<std::uint32_t>(r.gnss.points.size());
-  res.fixes_dropped = static_cast<std::uint32_t>(r.gnss.dropped.total());
-  res.poses = static_cast<std::uint32_t>(r.poses.size());
-  res.poses_matched = static_cast<std::uint32_t>(r.poses_matched);
-  res.control_points = static_cast<std::uint32_t>(r.control_points.points.size());
-  res.map_points = s.map_info.warp.points;
-  res.points_outside = s.map_info.warp.outside;
-  res.aligned = toMsg(r.metrics_aligned);
-  res.rubbersheet = toMsg(r.metrics_rubbersheet);
-  const geometry_msgs::Pose pose = ros_conv::toPoseMsg(r.T_enu_map);
-  res.T_enu_map.translation.x = pose.position.x;
-  res.T_enu_map.translation.y = pose.position.y;
-  res.T_enu_map.translation.z = pose.position.z;
-  res.T_enu_map.rotation = pose.orientation;
-  res.scale = r.scale;
-  if (r.datum) {
-    res.datum_lat = r.datum->lat;
-    res.datum_lon = r.datum->lon;
-    res.datum_alt = r.datum->alt;
-  }
-  res.seconds = s.seconds;
-  return res;
-}
-
-flexcloud::Georeference::Response GeoreferenceNode::georeference(int control_points,
-                                                                 double stddev_threshold) {
-  auto reply = std::make_shared<std::promise<flexcloud::Georeference::Response>>();
-  auto future = reply->get_future();
-  Params params;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (stop_) return failure("the node is shutting down");
-    if (busy_ || service_job_) {
-      return failure("a georeferencing run is going; call again when it has finished");
-    }
-    if (!bag_done_) return failure("still reading the bag " + params_.bag + "; call again soon");
-    if (!bag_error_.empty()) return failure(bag_error_);
-    params = params_.core;
-    if (control_points > 0) params.control_points = control_points;
-    if (stddev_threshold > 0.0) params.stddev_threshold = stddev_threshold;
-    if (control_points < 0 || stddev_threshold < 0.0 || !std::isfinite(stddev_threshold)) {
-      return failure("control_points and stddev_threshold must be 0 (keep) or positive");
-    }
-    if (const std::string bad = params.validate(); !bad.empty()) return failure(bad);
-    params_.core = params;
-    service_job_ = Job{params, reply};
-  }
-  wake_.notify_all();
-  pushConfig(params);
-  return future.get();
-}
-
-flexcloud::Save::Response GeoreferenceNode::save(const std::string& dir) {
-  flexcloud::Save::Response res;
-  std::shared_ptr<const State> s;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    s = state_;
-  }
-  if (!s) {
-    res.message = "no result yet: call georeference first";
-    return res;
-  }
-  if (dir.empty()) {
-    res.message = "directory is empty";
-    return res;
-  }
-  try {
-    MapWriter write_map;
-    if (s->map) {
-      write_map = [&](const std::string& path) {
-        std::vector<pcl::PCLPointField> fields;
-        pcl_conversions::toPCL(s->map->fields, fields);
-        writePcdBinary(path, fields, s->map->point_step, s->map->width, s->map->height,
-                       s->map->data.data(), s->map->data.size());
-      };
-    }
-    writeOutputs(dir, s->result, s->params, write_map, s->map ? &s->map_info : nullptr,
-                 s->frames);
-    res.success = true;
-    res.message = "wrote the result into " + dir;
-  } catch (const std::exception& e) {
-    res.message = e.what();
-  }
-  return res;
-}
-
-void GeoreferenceNode::reset() {
-  collector_.clear();
-  ROS_INFO("%s: cleared every fix and pose collected so far", name_.c_str());
 }
 
 // The callbacks answer every call: an exception becomes success false with its message
@@ -465,24 +86,386 @@ bool answer(Response& res, const std::string& name, F&& f) {
   return true;
 }
 
-bool GeoreferenceNode::onGeoreference(flexcloud::Georeference::Request& req,
-                                      flexcloud::Georeference::Response& res) {
-  return answer(res, name_, [&] { res = georeference(req.control_points, req.stddev_threshold); });
+void GeoreferenceNode::advertiseServices() {
+  using G = flexcloud::Georeference;
+  using S = flexcloud::Save;
+  using L = flexcloud::LoadMap;
+  using T = std_srvs::Trigger;
+  services_.push_back(service_nh_.advertiseService<G::Request, G::Response>(
+      "georeference", [this](G::Request& req, G::Response& res) {
+        return answer(res, name_,
+                      [&] { res = georeference(req.control_points, req.stddev_threshold); });
+      }));
+  services_.push_back(service_nh_.advertiseService<S::Request, S::Response>(
+      "save", [this](S::Request& req, S::Response& res) {
+        return answer(res, name_, [&] { res = save(req.directory); });
+      }));
+  services_.push_back(service_nh_.advertiseService<T::Request, T::Response>(
+      "reset", [this](T::Request&, T::Response& res) {
+        return answer(res, name_, [&] { res = reset(); });
+      }));
+  services_.push_back(service_nh_.advertiseService<L::Request, L::Response>(
+      "load_map", [this](L::Request& req, L::Response& res) {
+        return answer(res, name_, [&] { res = loadMap(req.file); });
+      }));
 }
 
-bool GeoreferenceNode::onSave(flexcloud::Save::Request& req, flexcloud::Save::Response& res) {
-  return answer(res, name_, [&] { res = save(req.directory); });
+void GeoreferenceNode::subscribe() {
+  const int q = params_.queue_size;
+  if (!params_.bag.empty()) {
+    startBagRead();
+  } else {
+    using namespace sensor_msgs;
+    subscribers_.push_back(nh_.subscribe<NavSatFix>(
+        "fix", q, boost::function<void(const NavSatFixConstPtr&)>(
+                      [this](const NavSatFixConstPtr& m) { collector_.handleFix(*m); })));
+    if (params_.odom_type == "odometry") {
+      subscribers_.push_back(nh_.subscribe<nav_msgs::Odometry>(
+          "odom", q,
+          boost::function<void(const nav_msgs::OdometryConstPtr&)>(
+              [this](const nav_msgs::OdometryConstPtr& m) { collector_.handleOdometry(*m); })));
+    } else if (params_.odom_type == "pose") {
+      subscribers_.push_back(nh_.subscribe<geometry_msgs::PoseStamped>(
+          "odom", q,
+          boost::function<void(const geometry_msgs::PoseStampedConstPtr&)>(
+              [this](const geometry_msgs::PoseStampedConstPtr& m) { collector_.handlePose(*m); })));
+    } else {
+      subscribers_.push_back(nh_.subscribe<nav_msgs::Path>(
+          "odom", q, boost::function<void(const nav_msgs::PathConstPtr&)>(
+                         [this](const nav_msgs::PathConstPtr& m) { collector_.handlePath(*m); })));
+    }
+  }
+  if (params_.map_file.empty()) {
+    subscribers_.push_back(nh_.subscribe("map", 1, &GeoreferenceNode::onMap, this));
+  }
 }
 
-bool GeoreferenceNode::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
-  return answer(res, name_, [&] {
-    reset();
-    res.success = true;
-    res.message = "cleared";
-  });
+void GeoreferenceNode::onMap(const sensor_msgs::PointCloud2ConstPtr& msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  map_ = msg;  // a run in progress keeps the cloud it started with
 }
 
-void GeoreferenceNode::pushConfig(const Params& p) {
+void GeoreferenceNode::startBagRead() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    bag_done_ = false;
+    bag_stop_ = false;
+    bag_error_.clear();
+  }
+  bag_thread_ = std::thread([this] { readBag(); });
+}
+
+void GeoreferenceNode::readBag() {
+  // The configured names (after remapping) are tried first; a bag recorded under other names
+  // is read from its only topic of each type, as the offline tool does.
+  BagTopics topics;
+  topics.fix = nh_.resolveName("fix");
+  topics.odom = nh_.resolveName("odom");
+  topics.fall_back_by_type = true;
+  std::string error;
+  try {
+    const BagSummary s = flexcloud::readBag(params_.bag, topics, collector_, nullptr, [this](double) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (bag_stop_) throw BagStopped{};
+    });
+    ROS_INFO("%s: read %zu fixes on %s and %zu poses on %s from %s", name_.c_str(), s.fixes,
+             s.fix_topic.c_str(), s.poses, s.odom_topic.c_str(), params_.bag.c_str());
+  } catch (const BagStopped&) {
+    return;
+  } catch (const Error& e) {
+    error = e.what();
+    ROS_ERROR("%s: %s", name_.c_str(), error.c_str());
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  bag_done_ = true;
+  bag_error_ = error;
+  if (error.empty() && params_.georeference_on_bag_end && !busy_ && !service_job_) {
+    service_job_ = Job{params_, nullptr};
+    wake_.notify_all();
+  }
+}
+
+std::string GeoreferenceNode::readMapFile(const std::string& file, std::uint64_t* points) {
+  sensor_msgs::PointCloud2Ptr msg(new sensor_msgs::PointCloud2);
+  try {
+    pcl::PCLPointCloud2 cloud = readPcd(file);
+    pcl_conversions::moveFromPCL(cloud, *msg);
+    ros_conv::xyzLayout(*msg, file);
+  } catch (const Error& e) {
+    const std::string error = "map_file " + std::string(e.what());
+    ROS_ERROR("%s: %s", name_.c_str(), error.c_str());
+    std::lock_guard<std::mutex> lock(mutex_);
+    map_error_ = error;
+    return error;
+  }
+  if (points != nullptr) *points = static_cast<std::uint64_t>(msg->width) * msg->height;
+  ROS_INFO("%s: loaded %u points from %s", name_.c_str(), msg->width * msg->height, file.c_str());
+  std::lock_guard<std::mutex> lock(mutex_);
+  map_ = msg;
+  map_error_.clear();
+  return "";
+}
+
+bool GeoreferenceNode::waitForJob(Job& job) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  while (!stop_ && !service_job_ &&
+         !(recompute_pending_ && std::chrono::steady_clock::now() >= recompute_at_)) {
+    if (recompute_pending_) {
+      wake_.wait_until(lock, recompute_at_);
+    } else {
+      wake_.wait(lock);
+    }
+  }
+  if (stop_) return false;
+  if (service_job_) {
+    job = std::move(*service_job_);
+    service_job_.reset();
+  } else {
+    job = Job{params_, nullptr};  // the latest setting wins
+  }
+  recompute_pending_ = false;
+  busy_ = true;
+  return true;
+}
+
+void GeoreferenceNode::workerLoop() {
+  if (!params_.map_file.empty()) readMapFile(params_.map_file, nullptr);
+  Job job;
+  while (waitForJob(job)) {
+    std::uint64_t generation;
+    auto cancel = std::make_shared<CancelToken>();
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      generation = generation_;
+      run_cancel_ = cancel;
+    }
+    std::shared_ptr<const NodeResult> result;
+    std::string error;
+    try {
+      result = run(job.params, *cancel);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+    const flexcloud::Result outcome = finish(result, error, generation);
+    if (job.reply) job.reply->set_value(outcome);
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (service_job_ && service_job_->reply) {
+    service_job_->reply->set_value(failed("the node is shutting down"));
+  }
+  service_job_.reset();
+}
+
+flexcloud::Result GeoreferenceNode::finish(std::shared_ptr<const NodeResult> result,
+                                           const std::string& error, std::uint64_t generation) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  busy_ = false;
+  run_cancel_.reset();
+  if (generation != generation_) {
+    return failed("reset while the run was going: its result was dropped");
+  }
+  if (!error.empty()) {
+    ROS_ERROR("%s: georeferencing failed: %s%s", name_.c_str(), error.c_str(),
+              result_ ? " (the published result stays, made with the parameters it lists)" : "");
+    const auto msg = toResultMsg(result_.get(), false, error);
+    lock.unlock();
+    publisher_->report(msg);
+    return msg;
+  }
+  result_ = result;
+  lock.unlock();
+  const auto& r = result->result;
+  std::string message = "georeferenced " + std::to_string(r.poses.size()) + " poses with " +
+                        std::to_string(r.control_points.points.size()) + " control points" +
+                        (result->map ? " and a map of " +
+                                           std::to_string(result->map_info.warp.points) + " points"
+                                     : " (no map yet)");
+  for (const auto& w : result->warnings) message += "; warning: " + w;
+  publisher_->show(*result);
+  const auto msg = toResultMsg(result.get(), true, message);
+  publisher_->report(msg);
+  ROS_INFO("%s: %s: MAE %.3f m to the GNSS (rigid only %.3f m)", name_.c_str(), message.c_str(),
+           r.metrics_rubbersheet.mae, r.metrics_aligned.mae);
+  for (const auto& w : result->warnings) ROS_WARN("%s: %s", name_.c_str(), w.c_str());
+  return msg;
+}
+
+std::shared_ptr<const NodeResult> GeoreferenceNode::run(const NodeParams& params,
+                                                        const CancelToken& cancel) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto s = std::make_shared<NodeResult>();
+  const DriveInput input = collector_.snapshot();
+  const std::string source = params.bag.empty() ? "" : params.bag;
+  if (input.fixes.empty()) {
+    throw Error("no GNSS fix received yet on " + (source.empty() ? nh_.resolveName("fix") : source));
+  }
+  if (input.poses.empty()) {
+    throw Error("no pose received yet on " + (source.empty() ? nh_.resolveName("odom") : source));
+  }
+  s->result = flexcloud::georeference(input, params.core);
+  cancel.check("georeferencing");
+  s->params = params;
+  s->frames.enu = params.enu_frame;
+  s->frames.map = !params.map_frame.empty()       ? params.map_frame
+                  : !collector_.mapFrame().empty() ? collector_.mapFrame()
+                                                   : std::string("map");
+  s->map = warpMap(params, s->result, cancel, s->map_info);
+  s->warnings = resultWarnings(s->result, params.core, s->map ? &s->map_info.warp : nullptr);
+  s->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return s;
+}
+
+sensor_msgs::PointCloud2ConstPtr GeoreferenceNode::warpMap(const NodeParams& params,
+                                                           const GeoreferenceResult& r,
+                                                           const CancelToken& cancel,
+                                                           MapInfo& info) {
+  bool reload = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    reload = !map_error_.empty() && !params.map_file.empty();
+  }
+  // A map file that could not be read before is tried again: it may be there now.
+  if (reload) {
+    if (const std::string e = readMapFile(params.map_file, nullptr); !e.empty()) throw Error(e);
+  }
+  sensor_msgs::PointCloud2ConstPtr map;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    map = map_;
+  }
+  if (!map) return nullptr;
+  const auto t0 = std::chrono::steady_clock::now();
+  sensor_msgs::PointCloud2Ptr warped(new sensor_msgs::PointCloud2(*map));
+  const std::string name = params.map_file.empty() ? nh_.resolveName("map") : params.map_file;
+  info.input = name;
+  info.warp = warpPoints(warped->data.data(), ros_conv::xyzLayout(*warped, name), *r.sheet,
+                         params.core.threads, name, cancel);
+  info.warp_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  warped->header.frame_id = params.enu_frame;
+  warped->header.stamp = ros::Time::now();
+  return warped;
+}
+
+flexcloud::Georeference::Response GeoreferenceNode::refused(const std::string& why) const {
+  return toResponse(failed(why));
+}
+
+flexcloud::Georeference::Response GeoreferenceNode::georeference(int control_points,
+                                                                 double stddev_threshold) {
+  if (!startup_error_.empty()) return refused(startup_error_);
+  auto reply = std::make_shared<std::promise<flexcloud::Result>>();
+  auto future = reply->get_future();
+  NodeParams params;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (stop_) return refused("the node is shutting down");
+    if (busy_ || service_job_) {
+      return refused("a georeferencing run is going; call again when it has finished");
+    }
+    if (!bag_done_) return refused("still reading the bag " + params_.bag + "; call again soon");
+    if (!bag_error_.empty()) return refused(bag_error_);
+    params = params_;
+    const auto override_with = [&](const char* name, double value) {
+      if (value == 0.0) return std::string();  // 0 keeps the node's value
+      const std::string bad = checkParam(name, ParamValue{value, "", {}});
+      if (bad.empty()) nodeParamTable().set(params, name, ParamValue{value, "", {}});
+      return bad;
+    };
+    const std::string bad = override_with("control_points", control_points) +
+                            override_with("stddev_threshold", stddev_threshold);
+    if (!bad.empty()) return refused("request refused: " + bad);
+    params_ = params;
+    service_job_ = Job{params, reply};
+  }
+  wake_.notify_all();
+  pushConfig(params);
+  return toResponse(future.get());
+}
+
+flexcloud::Save::Response GeoreferenceNode::save(const std::string& dir) {
+  flexcloud::Save::Response res;
+  if (!startup_error_.empty()) {
+    res.message = startup_error_;
+    return res;
+  }
+  std::shared_ptr<const NodeResult> s;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    s = result_;
+  }
+  if (!s) {
+    res.message = "no result to save: call georeference first (a reset withdraws the result)";
+    return res;
+  }
+  if (dir.empty()) {
+    res.message = "directory is empty";
+    return res;
+  }
+  const std::string absolute = std::filesystem::absolute(dir).lexically_normal().string();
+  MapWriter write_map;
+  if (s->map) {
+    write_map = [&](const std::string& path) {
+      writePcdBinary(path, ros_conv::pclFields(*s->map), s->map->point_step, s->map->width,
+                     s->map->height, s->map->data.data(), s->map->data.size());
+    };
+  }
+  RunContext run;
+  run.frames = s->frames;
+  run.map = s->map ? &s->map_info : nullptr;
+  writeOutputs(absolute, s->result, s->params.core, write_map, run);
+  res.success = true;
+  res.message = "wrote the result into " + absolute;
+  return res;
+}
+
+std_srvs::Trigger::Response GeoreferenceNode::reset() {
+  std_srvs::Trigger::Response res;
+  if (!startup_error_.empty()) {
+    res.message = startup_error_;
+    return res;
+  }
+  FrameNames frames;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++generation_;  // a run going now is dropped when it ends
+    if (run_cancel_) run_cancel_->cancel();
+    if (result_) frames = result_->frames;
+    result_.reset();
+    recompute_pending_ = false;
+    bag_stop_ = true;
+  }
+  if (bag_thread_.joinable()) bag_thread_.join();
+  collector_.clear();
+  publisher_->withdraw(frames);
+  publisher_->report(toResultMsg(nullptr, true, "reset: no result"));
+  if (!params_.bag.empty()) startBagRead();
+  res.success = true;
+  res.message = params_.bag.empty() ? "cleared every fix, pose and the result"
+                                    : "cleared every fix, pose and the result; reading " +
+                                          params_.bag + " again";
+  ROS_INFO("%s: %s", name_.c_str(), res.message.c_str());
+  return res;
+}
+
+flexcloud::LoadMap::Response GeoreferenceNode::loadMap(const std::string& file) {
+  flexcloud::LoadMap::Response res;
+  if (!startup_error_.empty()) {
+    res.message = startup_error_;
+    return res;
+  }
+  const std::string path = file.empty() ? params_.map_file : file;
+  if (path.empty()) {
+    res.message = "no file given and no ~map_file set";
+    return res;
+  }
+  res.message = readMapFile(path, &res.points);
+  res.success = res.message.empty();
+  if (res.success) res.message = "loaded " + std::to_string(res.points) + " points from " + path;
+  return res;
+}
+
+void GeoreferenceNode::pushConfig(const NodeParams& p) {
   GeoreferenceConfig c;
   {
     boost::recursive_mutex::scoped_lock lock(config_mutex_);
@@ -494,22 +477,22 @@ void GeoreferenceNode::pushConfig(const Params& p) {
 
 void GeoreferenceNode::onReconfigure(GeoreferenceConfig& c, uint32_t /*level*/) {
   std::lock_guard<std::mutex> lock(mutex_);
-  Params p;
+  NodeParams p;
   std::string bad;
   try {
-    p = fromConfig(c, params_.core);
+    p = fromConfig(c, params_);
     bad = p.validate();
   } catch (const Error& e) {
     bad = e.what();
   }
   if (!bad.empty()) {
     ROS_ERROR("%s: dynamic_reconfigure change refused: %s", name_.c_str(), bad.c_str());
-    toConfig(params_.core, c);  // the server shows the values in use
+    toConfig(params_, c);  // the server shows the values in use
     return;
   }
-  const bool changed = !sameScalars(p, params_.core);
-  params_.core = p;
-  if (changed && state_) {
+  const bool changed = !nodeParamTable().same(p, params_);
+  params_ = p;
+  if (changed && result_) {
     recompute_pending_ = true;
     recompute_at_ = std::chrono::steady_clock::now() +
                     std::chrono::duration_cast<std::chrono::steady_clock::duration>(

@@ -52,6 +52,8 @@ std_msgs::ColorRGBA ramp(double value, double red_at) {
 
 }  // namespace
 
+visualization_msgs::MarkerArray cleared(const std::string& frame) { return withDeleteAll(frame); }
+
 visualization_msgs::MarkerArray controlPoints(const GeoreferenceResult& r, const std::string& frame,
                                               const ros::Time& stamp) {
   auto a = withDeleteAll(frame);

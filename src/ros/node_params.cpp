@@ -1,98 +1,197 @@
 #include "flexcloud/ros/node_params.h"
 
-#include <cstdio>
+#include <dynamic_reconfigure/config_tools.h>
 
-#include "flexcloud/io/param_table.h"
+#include <cstdio>
 
 namespace flexcloud {
 namespace {
 
-/// The value as text for setParam(); throws Error for lists, maps and other non-scalars.
-std::string scalarText(const std::string& key, XmlRpc::XmlRpcValue& v) {
-  char buf[64];
-  switch (v.getType()) {
-    case XmlRpc::XmlRpcValue::TypeInt:
-      return std::to_string(static_cast<int>(v));
-    case XmlRpc::XmlRpcValue::TypeDouble:
+using N = NodeParams;
+
+ParamTable<N> makeNodeTable() {
+  std::vector<ParamRow<N>> rows = paramTable().lifted(&N::core);
+  std::vector<ParamRow<N>> own = {
+      textRow<N>("enu_frame", &N::enu_frame, "enu", "Frame of the georeferenced outputs"),
+      textRow<N>("map_frame", &N::map_frame, "",
+                 "Frame of the SLAM map and poses; empty: the frame id of the incoming poses"),
+      choiceRow<N>("odom_type", &N::odom_type, "odometry", {"odometry", "pose", "path"},
+                   "Type on the odom topic: nav_msgs/Odometry, geometry_msgs/PoseStamped or "
+                   "nav_msgs/Path (the latest path replaces all poses)"),
+      textRow<N>("bag", &N::bag, "", "Read fix and odom from this bag instead of subscribing"),
+      textRow<N>("map_file", &N::map_file, "",
+                 "PCD map to warp; empty: the latest PointCloud2 on the map topic"),
+      boolRow<N>("georeference_on_bag_end", &N::georeference_on_bag_end, false,
+                 "Georeference as soon as the bag has been read"),
+      realRow<N>("recompute_delay", &N::recompute_delay, 0.5, 0.0, 60.0, "s",
+                 "Wait after a dynamic_reconfigure change before recomputing (the latest wins)"),
+      intRow<N>("max_messages", &N::max_messages, 2000000, 1000, 100000000, "",
+                "Most fixes and poses kept each; beyond it the oldest half is dropped, counted"),
+      intRow<N>("queue_size", &N::queue_size, 5000, 1, 1000000, "", "Subscriber queue length"),
+  };
+  rows.insert(rows.end(), own.begin(), own.end());
+  return ParamTable<N>(std::move(rows));
+}
+
+std::string join(const std::string& a, const std::string& b) {
+  return a.empty() ? b : b.empty() ? a : a + "; " + b;
+}
+
+/// A value from the parameter server as its row's type; throws Error naming the key.
+ParamValue fromXmlRpc(const ParamSpec& spec, XmlRpc::XmlRpcValue& v) {
+  using X = XmlRpc::XmlRpcValue;
+  const std::string& key = spec.name;
+  if (v.getType() == X::TypeString) {
+    if (spec.type == ParamType::kRanges) throw Error(key + ": expected a list of [begin, end]");
+    return parseValue(spec, static_cast<std::string>(v));
+  }
+  switch (spec.type) {
+    case ParamType::kReal:
+    case ParamType::kInt: {
+      char buf[64];
+      if (v.getType() == X::TypeInt) return parseValue(spec, std::to_string(static_cast<int>(v)));
+      if (v.getType() != X::TypeDouble) throw Error(key + ": expected a number");
       std::snprintf(buf, sizeof(buf), "%.17g", static_cast<double>(v));
-      return buf;
-    case XmlRpc::XmlRpcValue::TypeString:
-      return static_cast<std::string>(v);
-    default:
-      throw Error(key + ": expected a single number or word");
+      return parseValue(spec, buf);
+    }
+    case ParamType::kBool:
+      if (v.getType() != X::TypeBoolean) throw Error(key + ": expected true or false");
+      return ParamValue{static_cast<bool>(v) ? 1.0 : 0.0, "", {}};
+    case ParamType::kText:
+    case ParamType::kChoice:
+      throw Error(key + ": expected a word");
+    case ParamType::kRanges: {
+      if (v.getType() != X::TypeArray) throw Error(key + ": expected a list of [begin, end]");
+      ParamValue out;
+      auto number = [&](X& x) {
+        if (x.getType() == X::TypeInt) return static_cast<double>(static_cast<int>(x));
+        if (x.getType() == X::TypeDouble) return static_cast<double>(x);
+        throw Error(key + ": expected numbers in [begin, end]");
+      };
+      for (int i = 0; i < v.size(); ++i) {
+        if (v[i].getType() != X::TypeArray || v[i].size() != 2) {
+          throw Error(key + ": expected a list of [begin, end]");
+        }
+        out.ranges.push_back({number(v[i][0]), number(v[i][1])});
+      }
+      return out;
+    }
   }
-}
-
-double number(const std::string& key, XmlRpc::XmlRpcValue& v) {
-  if (v.getType() == XmlRpc::XmlRpcValue::TypeInt) return static_cast<int>(v);
-  if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble) return static_cast<double>(v);
-  throw Error(key + ": expected a number");
-}
-
-template <typename T>
-void read(const ros::NodeHandle& pnh, const std::string& key, T& out, std::string& problems) {
-  if (!pnh.hasParam(key)) return;
-  if (!pnh.getParam(key, out)) {
-    problems += (problems.empty() ? "" : "; ") + key + ": wrong type";
-  }
+  return {};
 }
 
 }  // namespace
 
+const ParamTable<NodeParams>& nodeParamTable() {
+  static const ParamTable<NodeParams> table = makeNodeTable();
+  return table;
+}
+
+NodeParams::NodeParams() { nodeParamTable().setDefaults(*this); }
+
 std::string NodeParams::validate() const {
-  std::string bad = core.validate();
-  auto add = [&](bool ok, const std::string& what) {
-    if (!ok) bad += (bad.empty() ? "" : "; ") + what;
-  };
-  add(!enu_frame.empty(), "enu_frame must not be empty");
-  add(enu_frame != map_frame, "enu_frame and map_frame must differ");
-  add(odom_type == "odometry" || odom_type == "pose" || odom_type == "path",
-      "odom_type '" + odom_type + "' is not odometry, pose or path");
-  add(recompute_delay >= 0.0 && recompute_delay <= 60.0, "recompute_delay is not in [0, 60] s");
-  add(max_messages >= 1000, "max_messages must be at least 1000");
-  add(queue_size >= 1 && queue_size <= 1000000, "queue_size is not in [1, 1000000]");
+  std::string bad = join(nodeParamTable().validate(*this), core.ruleProblems());
+  if (enu_frame.empty()) bad = join(bad, "enu_frame must not be empty");
+  if (enu_frame == map_frame) bad = join(bad, "enu_frame and map_frame must differ");
   return bad;
+}
+
+std::string checkParam(const std::string& name, const ParamValue& value) {
+  return checkValue(nodeParamTable().row(name).spec, value);
 }
 
 NodeParams loadNodeParams(const ros::NodeHandle& pnh) {
   NodeParams p;
   std::string problems;
-  for (const auto& ref : paramRefs(p.core)) {
+  for (const auto& row : nodeParamTable().rows()) {
     XmlRpc::XmlRpcValue v;
-    if (!pnh.getParam(ref.name, v)) continue;
+    if (!pnh.getParam(row.spec.name, v)) continue;
     try {
-      setParam(p.core, ref.name, scalarText(ref.name, v));
+      row.set(p, fromXmlRpc(row.spec, v));
     } catch (const Error& e) {
-      problems += (problems.empty() ? "" : "; ") + std::string(e.what());
+      problems = join(problems, e.what());
     }
   }
-  XmlRpc::XmlRpcValue ranges;
-  if (pnh.getParam("excluded_ranges", ranges)) {
-    try {
-      if (ranges.getType() != XmlRpc::XmlRpcValue::TypeArray) throw Error("excluded_ranges: expected a list");
-      for (int i = 0; i < ranges.size(); ++i) {
-        XmlRpc::XmlRpcValue& r = ranges[i];
-        if (r.getType() != XmlRpc::XmlRpcValue::TypeArray || r.size() != 2) {
-          throw Error("excluded_ranges: expected [begin, end] pairs");
-        }
-        p.core.excluded_ranges.push_back({number("excluded_ranges", r[0]), number("excluded_ranges", r[1])});
-      }
-    } catch (const Error& e) {
-      problems += (problems.empty() ? "" : "; ") + std::string(e.what());
-    }
-  }
-  read(pnh, "enu_frame", p.enu_frame, problems);
-  read(pnh, "map_frame", p.map_frame, problems);
-  read(pnh, "odom_type", p.odom_type, problems);
-  read(pnh, "bag", p.bag, problems);
-  read(pnh, "map_file", p.map_file, problems);
-  read(pnh, "georeference_on_bag_end", p.georeference_on_bag_end, problems);
-  read(pnh, "recompute_delay", p.recompute_delay, problems);
-  read(pnh, "max_messages", p.max_messages, problems);
-  read(pnh, "queue_size", p.queue_size, problems);
-  const std::string invalid = p.validate();
-  if (!invalid.empty()) problems += (problems.empty() ? "" : "; ") + invalid;
+  problems = join(problems, p.validate());
   if (!problems.empty()) throw Error("parameters of " + pnh.getNamespace() + ": " + problems);
+  return p;
+}
+
+// dynamic_reconfigure keeps a config as a message of named ints, doubles, strs and bools; the
+// table's live rows are copied through that form, so no field is named twice.
+namespace {
+
+template <class Entry, class T>
+bool setEntry(std::vector<Entry>& entries, const std::string& name, const T& value) {
+  for (auto& e : entries) {
+    if (e.name == name) {
+      e.value = value;
+      return true;
+    }
+  }
+  return false;
+}
+
+template <class Entry>
+const Entry* findEntry(const std::vector<Entry>& entries, const std::string& name) {
+  for (const auto& e : entries) {
+    if (e.name == name) return &e;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+void toConfig(const NodeParams& p, GeoreferenceConfig& config) {
+  dynamic_reconfigure::Config msg;
+  config.__toMessage__(msg);
+  for (const auto& row : nodeParamTable().rows()) {
+    if (!row.spec.live) continue;
+    const ParamValue v = row.get(p);
+    const std::string& name = row.spec.name;
+    bool found = false;
+    switch (row.spec.type) {
+      case ParamType::kReal:
+        found = setEntry(msg.doubles, name, v.number);
+        break;
+      case ParamType::kInt:
+        found = setEntry(msg.ints, name, static_cast<int>(v.number));
+        break;
+      case ParamType::kBool:
+        found = setEntry(msg.bools, name, static_cast<std::uint8_t>(v.number != 0.0));
+        break;
+      case ParamType::kText:
+      case ParamType::kChoice:
+        found = setEntry(msg.strs, name, v.text);
+        break;
+      case ParamType::kRanges:
+        break;
+    }
+    if (!found) throw Error("dynamic_reconfigure has no " + typeName(row.spec.type) + " " + name);
+  }
+  config.__fromMessage__(msg);
+}
+
+NodeParams fromConfig(const GeoreferenceConfig& config, NodeParams p) {
+  dynamic_reconfigure::Config msg;
+  config.__toMessage__(msg);
+  for (const auto& row : nodeParamTable().rows()) {
+    if (!row.spec.live) continue;
+    const std::string& name = row.spec.name;
+    ParamValue v;
+    bool found = false;
+    if (const auto* d = findEntry(msg.doubles, name); d && row.spec.type == ParamType::kReal) {
+      v.number = d->value, found = true;
+    } else if (const auto* i = findEntry(msg.ints, name); i && row.spec.type == ParamType::kInt) {
+      v.number = i->value, found = true;
+    } else if (const auto* b = findEntry(msg.bools, name); b && row.spec.type == ParamType::kBool) {
+      v.number = b->value ? 1.0 : 0.0, found = true;
+    } else if (const auto* t = findEntry(msg.strs, name)) {
+      v = parseValue(row.spec, t->value), found = true;
+    }
+    if (!found) throw Error("dynamic_reconfigure has no " + typeName(row.spec.type) + " " + name);
+    row.set(p, v);
+  }
   return p;
 }
 

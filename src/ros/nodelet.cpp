@@ -1,8 +1,10 @@
-// The nodelet flexcloud/GeoreferenceNodelet: a shell around GeoreferenceNode.
+// The nodelet flexcloud/GeoreferenceNodelet: a shell around GeoreferenceNode. A nodelet cannot
+// leave its manager: with a bad parameter the node logs the fatal line and answers every
+// service with the reason.
 #include <nodelet/nodelet.h>
-#include <pluginlib/class_list_macros.hpp>
 
 #include <memory>
+#include <pluginlib/class_list_macros.hpp>
 
 #include "flexcloud/ros/georeference_node.h"
 
@@ -11,11 +13,7 @@ namespace flexcloud {
 class GeoreferenceNodelet : public nodelet::Nodelet {
  private:
   void onInit() override {
-    try {
-      node_ = std::make_unique<GeoreferenceNode>(getNodeHandle(), getPrivateNodeHandle());
-    } catch (const std::exception& e) {
-      NODELET_FATAL("%s: not started: %s", getName().c_str(), e.what());
-    }
+    node_ = std::make_unique<GeoreferenceNode>(getNodeHandle(), getPrivateNodeHandle());
   }
   std::unique_ptr<GeoreferenceNode> node_;
 };

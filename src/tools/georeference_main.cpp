@@ -18,10 +18,11 @@
 #include "flexcloud/io/pcd_header.h"
 #include "flexcloud/io/pcd_stream.h"
 #include "flexcloud/io/outputs.h"
-#include "flexcloud/io/param_table.h"
 #include "flexcloud/io/pcd_io.h"
 #include "flexcloud/io/text_io.h"
+#include "flexcloud/io/memory.h"
 #include "flexcloud/ros/bag_input.h"
+#include "flexcloud/ros/node_params.h"
 
 namespace {
 
@@ -47,7 +48,8 @@ options:
   --datum LAT LON ALT     ENU datum (default: the first valid fix)
   --control-points N      number of control points (default 200)
   --stddev-threshold M    largest GNSS std-dev (m) of a control point (default 0.1)
-  --config FILE.yaml      parameters, same keys as the ROS node's
+  --config FILE.yaml      parameters, same keys as the ROS node's (config/georeference.yaml;
+                          the node's own keys are accepted and not used)
   --set KEY=VALUE         any parameter (repeatable), e.g. --set max_gap=2
   --threads N             warp threads (default: all cores)
   --truth FILE.pcd        ground-truth map in the output ENU frame (same points, same order):
@@ -126,13 +128,19 @@ Options parseOptions(int argc, char** argv) {
   return o;
 }
 
+/// The parameters from --config and --set, read through the node's table: a config file
+/// written for the node works here too.
 Params loadParams(const Options& o) {
-  Params p;
-  if (!o.config.empty()) loadParamsYaml(o.config, p);
-  for (const auto& [k, v] : o.sets) setParam(p, k, v);
+  NodeParams p;
+  if (!o.config.empty()) loadParamsYaml(o.config, nodeParamTable(), p);
+  for (const auto& [k, v] : o.sets) nodeParamTable().setText(p, k, v);
   if (const std::string bad = p.validate(); !bad.empty()) throw Error("parameters: " + bad);
-  return p;
+  return p.core;
 }
+
+/// Raised by SIGINT and SIGTERM: the run stops at its next check and leaves the output folder
+/// as it was. (A signal handler can only reach static storage; the library takes the token.)
+CancelToken g_interrupt;
 
 class Progress {
  public:
@@ -149,9 +157,7 @@ double since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-void checkCancel() {
-  if (g_cancel) throw Error("interrupted");
-}
+void checkCancel() { g_interrupt.check("georeference"); }
 
 DriveInput loadDrive(const Options& o, const Progress& log, std::string& map_frame) {
   if (!o.bag.empty()) {
@@ -178,7 +184,8 @@ DriveInput loadDrive(const Options& o, const Progress& log, std::string& map_fra
   return in;
 }
 
-void printSummary(const GeoreferenceResult& r, const MapInfo* map, const std::string& out) {
+void printSummary(const GeoreferenceResult& r, const Params& params, const MapInfo* map,
+                  const std::string& out) {
   char line[512];
   std::snprintf(line, sizeof(line),
                 "flexcloud: %zu poses (%zu with GNSS), %zu control points, %zu tetrahedra\n",
@@ -211,44 +218,86 @@ void printSummary(const GeoreferenceResult& r, const MapInfo* map, const std::st
       std::cout << line;
     }
   }
-  if (r.revisits.conflicting > 0) {
-    std::snprintf(line, sizeof(line),
-                  "  warning        %zu control point pairs revisit places that the SLAM map puts "
-                  "elsewhere on another pass (up to %.2f m): close those loops in the SLAM, no warp "
-                  "can merge ghosted passes\n",
-                  r.revisits.conflicting, r.revisits.worst);
-    std::cout << line;
+  for (const auto& w : resultWarnings(r, params, map ? &map->warp : nullptr)) {
+    std::cout << "  warning        " << w << "\n";
   }
   std::cout << "  outputs in     " << out << "\n";
+}
+
+/// The map as the run will warp it: a binary PCD is streamed (read, warped and written chunk by
+/// chunk: memory stays small whatever its size); other encodings are loaded whole. Checked
+/// before the pipeline runs, so a bad map costs nothing.
+struct MapSource {
+  bool stream = false;
+  std::optional<pcl::PCLPointCloud2> cloud;
+};
+
+MapSource openMap(const Options& o, const Progress& log, MapInfo& info) {
+  MapSource m;
+  if (o.map.empty()) return m;
+  const PcdHeader header = readPcdHeader(o.map);
+  if (header.points == 0) throw Error(o.map + ": the map holds no points");
+  XyzLayout::of(pclFields(header), header.point_step, header.points,
+                header.points * header.point_step, o.map);
+  m.stream = header.data == PcdHeader::Data::kBinary;
+  info.input = o.map;
+  if (!m.stream) {
+    log.say("reading " + o.map);
+    const auto t0 = std::chrono::steady_clock::now();
+    m.cloud = readPcd(o.map);
+    info.read_seconds = since(t0);
+  }
+  return m;
+}
+
+/// Warps a map held in memory now (comparing with the truth before and after) and returns the
+/// writer of the result.
+MapWriter warpLoadedMap(const Options& o, const Params& params, const GeoreferenceResult& r,
+                        const Progress& log, pcl::PCLPointCloud2& map, MapInfo& info) {
+  std::optional<pcl::PCLPointCloud2> truth;
+  if (!o.truth.empty()) {
+    truth = readPcd(o.truth);
+    info.has_truth = true;
+    info.truth_aligned = compareClouds(
+        map, *truth, [&](const Eigen::Vector3d& p) { return Eigen::Vector3d(r.T_enu_map * p); });
+  }
+  log.say("warping the map");
+  const auto t0 = std::chrono::steady_clock::now();
+  info.warp = warpCloud(map, *r.sheet, params.threads, o.map, g_interrupt);
+  info.warp_seconds = since(t0);
+  if (truth) {
+    info.truth_rubbersheet = compareClouds(map, *truth, [](const Eigen::Vector3d& p) { return p; });
+  }
+  return [&map, &info](const std::string& path) {
+    const auto t1 = std::chrono::steady_clock::now();
+    writePcdBinary(path, map);
+    info.write_seconds = since(t1);
+  };
+}
+
+/// The writer that streams a binary map through the warp into the output.
+MapWriter streamedMap(const Options& o, const Params& params, const GeoreferenceResult& r,
+                      const Progress& log, MapInfo& info) {
+  return [&o, &params, &r, &log, &info](const std::string& path) {
+    log.say("warping " + o.map + " (streamed)");
+    MapStreamOptions so;
+    so.threads = params.threads;
+    so.truth = o.truth;
+    so.T_enu_map = r.T_enu_map;
+    so.cancel = &g_interrupt;
+    warpPcdFile(o.map, path, *r.sheet, so, info);
+  };
 }
 
 int run(int argc, char** argv) {
   const Options o = parseOptions(argc, argv);
   const Params params = loadParams(o);
   const Progress log(o.quiet);
-  FrameNames frames;
-  const DriveInput drive = loadDrive(o, log, frames.map);
+  RunContext context;
+  const DriveInput drive = loadDrive(o, log, context.frames.map);
   checkCancel();
-
-  // The map is checked before the pipeline runs. A binary PCD is streamed (read, warped and
-  // written chunk by chunk: memory stays small whatever its size); others are loaded whole.
-  std::optional<pcl::PCLPointCloud2> map;
   MapInfo info;
-  bool stream = false;
-  if (!o.map.empty()) {
-    const PcdHeader header = readPcdHeader(o.map);
-    if (header.points == 0) throw Error(o.map + ": the map holds no points");
-    XyzLayout::of(pclFields(header), header.point_step, header.points,
-                  header.points * header.point_step, o.map);
-    stream = header.data == PcdHeader::Data::kBinary;
-    info.input = o.map;
-    if (!stream) {
-      log.say("reading " + o.map);
-      const auto t0 = std::chrono::steady_clock::now();
-      map = readPcd(o.map);
-      info.read_seconds = since(t0);
-    }
-  }
+  MapSource map = openMap(o, log, info);
   checkCancel();
 
   log.say("georeferencing");
@@ -256,56 +305,37 @@ int run(int argc, char** argv) {
   checkCancel();
 
   MapWriter write_map;
-  if (stream) {
-    write_map = [&](const std::string& path) {
-      log.say("warping " + o.map + " (streamed)");
-      MapStreamOptions so;
-      so.threads = params.threads;
-      so.truth = o.truth;
-      so.T_enu_map = r.T_enu_map;
-      warpPcdFile(o.map, path, *r.sheet, so, info);
-    };
-  } else if (map) {
-    std::optional<pcl::PCLPointCloud2> truth;
-    if (!o.truth.empty()) {
-      truth = readPcd(o.truth);
-      info.has_truth = true;
-      info.truth_aligned = compareClouds(*map, *truth, [&](const Eigen::Vector3d& p) {
-        return Eigen::Vector3d(r.T_enu_map * p);
-      });
-    }
-    log.say("warping the map");
-    const auto t0 = std::chrono::steady_clock::now();
-    info.warp = warpCloud(*map, *r.sheet, params.threads, o.map);
-    info.warp_seconds = since(t0);
-    if (truth) {
-      info.truth_rubbersheet =
-          compareClouds(*map, *truth, [](const Eigen::Vector3d& p) { return p; });
-    }
-    write_map = [&](const std::string& path) {
-      const auto t1 = std::chrono::steady_clock::now();
-      writePcdBinary(path, *map);
-      info.write_seconds = since(t1);
-    };
+  if (map.stream) {
+    write_map = streamedMap(o, params, r, log, info);
+  } else if (map.cloud) {
+    write_map = warpLoadedMap(o, params, r, log, *map.cloud, info);
   }
   checkCancel();
   log.say("writing " + o.out);
   const bool has_map = !o.map.empty();
-  writeOutputs(o.out, r, params, write_map, has_map ? &info : nullptr, frames);
+  context.map = has_map ? &info : nullptr;
+  context.cancel = &g_interrupt;
+  // The map is written first, so the peak includes it.
+  const MapWriter measured = [&](const std::string& path) {
+    if (write_map) write_map(path);
+    context.peak_memory_mb = peakMemoryMb();
+  };
+  context.peak_memory_mb = peakMemoryMb();
+  writeOutputs(o.out, r, params, has_map ? measured : MapWriter(), context);
   if (has_map) {
     log.say("  map: read " + std::to_string(info.read_seconds) + " s, warp " +
             std::to_string(info.warp_seconds) + " s, write " + std::to_string(info.write_seconds) +
             " s");
   }
-  printSummary(r, has_map ? &info : nullptr, o.out);
+  printSummary(r, params, has_map ? &info : nullptr, o.out);
   return 0;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::signal(SIGINT, [](int) { flexcloud::g_cancel = true; });
-  std::signal(SIGTERM, [](int) { flexcloud::g_cancel = true; });
+  std::signal(SIGINT, [](int) { g_interrupt.cancel(); });
+  std::signal(SIGTERM, [](int) { g_interrupt.cancel(); });
   ros::Time::init();
   try {
     return run(argc, argv);
@@ -314,7 +344,7 @@ int main(int argc, char** argv) {
     return 2;
   } catch (const flexcloud::Error& e) {
     std::cerr << "georeference: " << e.what() << std::endl;
-    return flexcloud::g_cancel ? 130 : 1;
+    return g_interrupt.cancelled() ? 130 : 1;
   } catch (const std::exception& e) {
     std::cerr << "georeference: unexpected failure: " << e.what() << std::endl;
     return 1;

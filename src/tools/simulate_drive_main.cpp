@@ -15,7 +15,7 @@
 
 #include "cli.h"
 #include "flexcloud/io/atomic_file.h"
-#include "flexcloud/io/param_table.h"
+#include "flexcloud/param_table.h"
 #include "flexcloud/io/pcd_io.h"
 #include "flexcloud/io/text_io.h"
 #include "flexcloud/ros/conversions.h"
@@ -45,6 +45,8 @@ constexpr const char* kUsage = R"(usage: simulate_drive [options]
   --heading-bias D        deg per 100 m (default 0.1)   --pitch-bias D (default 0.04)
   --scale-error F         (default 0.002)
   --odom-type T           odometry (default), pose or path
+  --fix-topic T           topic of the fixes in the bag (default /fix)
+  --odom-topic T          topic of the poses in the bag (default /odom)
   --map-topic             also put the SLAM map into the bag on /map (PointCloud2)
   -h, --help
 )";
@@ -53,6 +55,8 @@ struct Options {
   sim::SimParams sim;
   std::string out = "sim_out";
   std::string odom_type = "odometry";
+  std::string fix_topic = "/fix";
+  std::string odom_topic = "/odom";
   bool map_topic = false;
 };
 
@@ -96,9 +100,9 @@ Options parse(int argc, char** argv) {
       s.reported_std_h = a.number(f);
       s.reported_std_v = a.number(f);
     } else if (f == "--outage") {
-      for (const auto& r : parseRanges(a.text(f))) s.outages.push_back(r);
+      for (const auto& r : parseTimeRanges(f, a.text(f))) s.outages.push_back(r);
     } else if (f == "--no-fix") {
-      for (const auto& r : parseRanges(a.text(f))) s.no_fix.push_back(r);
+      for (const auto& r : parseTimeRanges(f, a.text(f))) s.no_fix.push_back(r);
     } else if (f == "--clock-offset") {
       s.clock_offset = a.number(f);
     } else if (f == "--heading-bias") {
@@ -112,6 +116,10 @@ Options parse(int argc, char** argv) {
       if (o.odom_type != "odometry" && o.odom_type != "pose" && o.odom_type != "path") {
         throw UsageError("--odom-type: '" + o.odom_type + "' is not odometry, pose or path");
       }
+    } else if (f == "--fix-topic") {
+      o.fix_topic = a.text(f);
+    } else if (f == "--odom-topic") {
+      o.odom_topic = a.text(f);
     } else if (f == "--map-topic") {
       o.map_topic = true;
     } else {
@@ -128,22 +136,22 @@ void writeBag(const std::string& path, const sim::SimDrive& d, const Options& o,
     rosbag::Bag bag(file.tempPath(), rosbag::bagmode::Write);
     for (const auto& f : d.fixes) {
       const auto msg = ros_conv::toNavSatFix(f, "gnss");
-      bag.write("/fix", msg.header.stamp, msg);
+      bag.write(o.fix_topic, msg.header.stamp, msg);
     }
     for (const auto& p : d.slam) {
       const auto odom = ros_conv::toOdometry(p, "map", "base_link");
       if (o.odom_type == "odometry") {
-        bag.write("/odom", odom.header.stamp, odom);
+        bag.write(o.odom_topic, odom.header.stamp, odom);
       } else if (o.odom_type == "pose") {
         geometry_msgs::PoseStamped ps;
         ps.header = odom.header;
         ps.pose = odom.pose.pose;
-        bag.write("/odom", ps.header.stamp, ps);
+        bag.write(o.odom_topic, ps.header.stamp, ps);
       }
     }
     if (o.odom_type == "path") {
       const auto path_msg = ros_conv::toPath(d.slam, "map");
-      bag.write("/odom", path_msg.header.stamp, path_msg);
+      bag.write(o.odom_topic, path_msg.header.stamp, path_msg);
     }
     if (map != nullptr) {
       sensor_msgs::PointCloud2 msg;

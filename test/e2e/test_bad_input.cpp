@@ -8,9 +8,14 @@
 #include "flexcloud/cloud_warp.h"
 #include "flexcloud/georeference.h"
 #include "flexcloud/sim/sim_cloud.h"
+#include "test_util.h"
 
 namespace flexcloud {
 namespace {
+
+using test::atSimDatum;
+using test::inputOf;
+using test::mapError;
 
 sim::SimParams small(std::uint64_t seed = 21) {
   sim::SimParams sp;
@@ -19,39 +24,8 @@ sim::SimParams small(std::uint64_t seed = 21) {
   return sp;
 }
 
-DriveInput inputOf(const sim::SimDrive& d) {
-  DriveInput in;
-  in.fixes = d.fixes;
-  in.poses = d.slam;
-  return in;
-}
-
-Params atSimDatum(const sim::SimDrive& d) {
-  Params p;
-  p.datum_lat = d.datum.lat;
-  p.datum_lon = d.datum.lon;
-  p.datum_alt = d.datum.alt;
-  return p;
-}
-
-/// Warps the drive's map and returns its error against the truth; every point must be kept,
-/// finite where it was finite.
-ErrorStats mapError(const sim::SimDrive& d, const GeoreferenceResult& r, WarpStats* stats = nullptr) {
-  pcl::PCLPointCloud2 map = sim::slamCloud(d.map);
-  const WarpStats s = warpCloud(map, *r.sheet, 2);
-  EXPECT_EQ(s.points, d.map.slam.size());
-  EXPECT_EQ(s.non_finite, 0u);
-  if (stats) *stats = s;
-  return compareClouds(map, sim::truthCloud(d.map), [](const Eigen::Vector3d& x) { return x; });
-}
-
 std::string errorOf(const DriveInput& in, const Params& p) {
-  try {
-    georeference(in, p);
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
+  return test::errorOf([&] { georeference(in, p); });
 }
 
 TEST(BadInput, GnssJumpOfHundredsOfMetresForTwentySeconds) {

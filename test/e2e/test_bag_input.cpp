@@ -10,6 +10,7 @@
 #include "flexcloud/ros/bag_input.h"
 #include "flexcloud/ros/conversions.h"
 #include "flexcloud/sim/drive_simulator.h"
+#include "test_util.h"
 
 namespace flexcloud {
 namespace {
@@ -39,12 +40,7 @@ void writeFixes(rosbag::Bag& bag, const std::string& topic) {
 
 std::string errorOf(const std::string& path, BagTopics topics = {}) {
   DriveCollector c;
-  try {
-    readBag(path, topics, c);
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
+  return test::errorOf([&] { readBag(path, topics, c); });
 }
 
 TEST(BagInput, SeveralCandidateTopicsAskForAChoice) {

@@ -4,6 +4,7 @@
 #include "flexcloud/cloud_warp.h"
 #include "flexcloud/georeference.h"
 #include "flexcloud/sim/sim_cloud.h"
+#include "test_util.h"
 
 namespace flexcloud {
 namespace {
@@ -17,15 +18,9 @@ struct MapErrors {
 
 MapErrors run(const sim::SimParams& sp, int control_points) {
   const sim::SimDrive d = sim::simulateDrive(sp);
-  DriveInput in;
-  in.fixes = d.fixes;
-  in.poses = d.slam;
-  Params p;
+  Params p = test::atSimDatum(d);  // the truth is in the ENU frame of the simulator's datum
   p.control_points = control_points;
-  p.datum_lat = d.datum.lat;  // the truth is in the ENU frame of the simulator's datum
-  p.datum_lon = d.datum.lon;
-  p.datum_alt = d.datum.alt;
-  MapErrors e{{}, {}, {}, georeference(in, p)};
+  MapErrors e{{}, {}, {}, georeference(test::inputOf(d), p)};
   const auto& r = e.result;
   pcl::PCLPointCloud2 map = sim::slamCloud(d.map);
   const pcl::PCLPointCloud2 truth = sim::truthCloud(d.map);

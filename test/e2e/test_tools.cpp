@@ -11,27 +11,15 @@
 
 #include "flexcloud/cloud_warp.h"
 #include "flexcloud/io/pcd_io.h"
+#include "test_util.h"
 
 namespace flexcloud {
 namespace {
 
 namespace fs = std::filesystem;
 
-struct Result {
-  int code;
-  std::string output;
-};
-
-Result sh(const std::string& cmd) {
-  Result r{-1, ""};
-  FILE* p = ::popen((cmd + " 2>&1").c_str(), "r");
-  if (p == nullptr) return r;
-  char buf[4096];
-  while (std::fgets(buf, sizeof(buf), p) != nullptr) r.output += buf;
-  const int status = ::pclose(p);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+using Result = test::ShellResult;
+using test::sh;
 
 std::string bin(const std::string& name) { return std::string(FLEXCLOUD_BIN_DIR) + "/" + name; }
 

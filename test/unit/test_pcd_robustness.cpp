@@ -7,6 +7,7 @@
 
 #include "flexcloud/cloud_warp.h"
 #include "flexcloud/io/pcd_io.h"
+#include "test_util.h"
 
 namespace flexcloud {
 namespace {
@@ -20,19 +21,10 @@ std::string header(const std::string& fields, const std::string& size, const std
          std::to_string(points < 0 ? width * height : points) + "\nDATA " + data + "\n";
 }
 
-std::string write(const std::string& name, const std::string& bytes) {
-  const std::string path = ::testing::TempDir() + name;
-  std::ofstream(path, std::ios::binary) << bytes;
-  return path;
-}
+using test::writeTempFile;
 
 std::string errorOf(const std::string& path) {
-  try {
-    readPcd(path);
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
+  return test::errorOf([&] { readPcd(path); });
 }
 
 struct Bad {
@@ -82,7 +74,7 @@ TEST(PcdRobustness, MalformedFilesAreOneLineErrors) {
        "compressed body is missing"},
   };
   for (const auto& c : cases) {
-    const std::string path = write(c.name, c.bytes);
+    const std::string path = writeTempFile(c.name, c.bytes);
     const std::string e = errorOf(path);
     EXPECT_NE(e.find(c.says), std::string::npos) << c.name << ": " << e;
     EXPECT_NE(e.find(c.name), std::string::npos) << "the error names the file: " << e;
@@ -94,7 +86,7 @@ TEST(PcdRobustness, AsciiKeepsNanPointsAndEveryFieldType) {
   const std::string bytes =
       header("x y z t n big", "4 4 8 1 2 8", "F F F I U I", "1 1 1 1 1 1", 3, 1, "ascii") +
       "1.5 -2 3e2 -128 65535 -9000000000\nnan nan nan 0 0 0\n0 0 0 127 1 9000000000\n";
-  const pcl::PCLPointCloud2 c = readPcd(write("types.pcd", bytes));
+  const pcl::PCLPointCloud2 c = readPcd(writeTempFile("types.pcd", bytes));
   const XyzLayout l = XyzLayout::of(c, "types");
   EXPECT_EQ(l.get(c.data.data()), Eigen::Vector3d(1.5, -2.0, 300.0));
   EXPECT_TRUE(l.get(c.data.data() + c.point_step).hasNaN());
@@ -113,7 +105,7 @@ TEST(PcdRobustness, AsciiKeepsNanPointsAndEveryFieldType) {
 TEST(PcdRobustness, OrganizedAsciiKeepsItsShape) {
   std::string bytes = header("x y z", "4 4 4", "F F F", "1 1 1", 2, 3, "ascii");
   for (int i = 0; i < 6; ++i) bytes += std::to_string(i) + " 0 0\n";
-  const pcl::PCLPointCloud2 c = readPcd(write("organized.pcd", bytes));
+  const pcl::PCLPointCloud2 c = readPcd(writeTempFile("organized.pcd", bytes));
   EXPECT_EQ(c.width, 2u);
   EXPECT_EQ(c.height, 3u);
   const XyzLayout l = XyzLayout::of(c, "o");

@@ -10,6 +10,7 @@
 #include "flexcloud/io/map_stream.h"
 #include "flexcloud/io/pcd_io.h"
 #include "flexcloud/sim/sim_cloud.h"
+#include "test_util.h"
 
 namespace flexcloud {
 namespace {
@@ -26,12 +27,9 @@ Case makeCase(int control_points, std::size_t map_points) {
   sp.seed = 11;
   sp.map_points = map_points;
   Case c{sim::simulateDrive(sp), {}};
-  DriveInput in;
-  in.fixes = c.drive.fixes;
-  in.poses = c.drive.slam;
   Params p;
   p.control_points = control_points;
-  c.result = georeference(in, p);
+  c.result = georeference(test::inputOf(c.drive), p);
   return c;
 }
 

@@ -5,6 +5,7 @@
 #include <Eigen/Geometry>
 #include <string>
 
+#include "flexcloud/cancel.h"
 #include "flexcloud/io/outputs.h"
 #include "flexcloud/rubber_sheet.h"
 
@@ -18,12 +19,13 @@ struct MapStreamOptions {
   /// Copy in the kernel and warp in place through memory maps where the filesystem can reserve
   /// the space; false: always read, warp and write through buffers.
   bool in_place = true;
+  /// Stops the warp (with Error) once cancelled; the output file is then not created.
+  const CancelToken* cancel = &neverCancelled();
 };
 
 /// Warps binary PCD `in` into binary PCD `out` (written under a temporary name, renamed when
 /// complete) and fills info's warp counts, stage seconds and, with a truth, its errors.
-/// Throws Error for a bad file, a truth of another size, a write failure or cancellation
-/// (g_cancel).
+/// Throws Error for a bad file, a truth of another size, a write failure or cancellation.
 void warpPcdFile(const std::string& in, const std::string& out, const RubberSheet& sheet,
                  const MapStreamOptions& options, MapInfo& info);
 

@@ -31,8 +31,18 @@ struct FrameNames {
   std::string map = "map";
 };
 
-std::string reportJson(const GeoreferenceResult& r, const Params& params, const MapInfo* map,
-                       const FrameNames& frames);
+/// What the caller knows about the run beyond the result.
+struct RunContext {
+  FrameNames frames;
+  const MapInfo* map = nullptr;  ///< null: no map was warped
+  /// Peak resident memory (MB) of the process that made the result; negative: not measured
+  /// (inside a nodelet manager the process is the manager, so the node does not report it).
+  double peak_memory_mb = -1.0;
+  /// Stops writeOutputs before anything is moved into place.
+  const CancelToken* cancel = &neverCancelled();
+};
+
+std::string reportJson(const GeoreferenceResult& r, const Params& params, const RunContext& run);
 std::string originYaml(const GeoreferenceResult& r, const FrameNames& frames);
 std::string controlPointsText(const GeoreferenceResult& r);
 /// The interpolated GNSS at every matched pose as TUM (identity orientation).
@@ -43,10 +53,10 @@ std::string gnssTum(const GeoreferenceResult& r);
 using MapWriter = std::function<void(const std::string& path)>;
 
 /// Writes map_georeferenced.pcd (through write_map, if given; it runs first, so the report
-/// sees what it put into map_info), trajectory_{gnss,slam,aligned,rubbersheet}.txt,
+/// sees what it put into run.map), trajectory_{gnss,slam,aligned,rubbersheet}.txt,
 /// control_points.txt, origin.yaml and report.json into `dir` (created if needed). Throws
-/// Error; on failure `dir` keeps its previous files.
+/// Error, also when run.cancel is cancelled; on failure `dir` keeps its previous files.
 void writeOutputs(const std::string& dir, const GeoreferenceResult& r, const Params& params,
-                  const MapWriter& write_map, const MapInfo* map_info, const FrameNames& frames);
+                  const MapWriter& write_map, const RunContext& run);
 
 }  // namespace flexcloud

@@ -15,6 +15,9 @@ struct BagTopics {
   std::string fix;   ///< sensor_msgs/NavSatFix
   std::string odom;  ///< nav_msgs/Odometry, geometry_msgs/PoseStamped or nav_msgs/Path
   std::string map;   ///< sensor_msgs/PointCloud2 (optional; never auto-picked)
+  /// A given fix or odom topic that is not in the bag falls back to the bag's only topic of a
+  /// fitting type (the node's default names), instead of an error (names the user typed).
+  bool fall_back_by_type = false;
 };
 
 struct BagSummary {

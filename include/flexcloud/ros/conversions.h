@@ -1,6 +1,7 @@
 #pragma once
 // Every conversion between ROS messages and core types lives here.
 
+#include <geometry_msgs/Transform.h>
 #include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
 #include <geometry_msgs/PoseStamped.h>
@@ -9,6 +10,8 @@
 
 #include <pcl/PCLPointCloud2.h>
 
+#include "flexcloud/Deviation.h"
+#include "flexcloud/cloud_warp.h"
 #include "flexcloud/geodesy.h"
 #include "flexcloud/gnss.h"
 #include "flexcloud/types.h"
@@ -28,10 +31,9 @@ sensor_msgs::NavSatFix toNavSatFix(const RawFix& fix, const std::string& frame_i
 nav_msgs::Odometry toOdometry(const Pose& pose, const std::string& frame_id,
                               const std::string& child_frame_id);
 nav_msgs::Path toPath(const Trajectory& poses, const std::string& frame_id);
-/// A path of bare positions (identity orientation), e.g. GNSS.
-nav_msgs::Path toPath(const std::vector<Eigen::Vector3d>& positions,
-                      const std::vector<double>& stamps, const std::string& frame_id);
 geometry_msgs::Pose toPoseMsg(const Eigen::Isometry3d& t);
+geometry_msgs::Transform toTransformMsg(const Eigen::Isometry3d& t);
+flexcloud::Deviation toDeviationMsg(const ErrorStats& s);
 
 /// Seconds as a ros::Time; throws flexcloud::Error when negative or out of range.
 ros::Time toTime(double seconds);
@@ -39,5 +41,9 @@ ros::Time toTime(double seconds);
 void toCloudMsg(const pcl::PCLPointCloud2& cloud, const std::string& frame_id,
                 sensor_msgs::PointCloud2& msg);
 void fromCloudMsg(const sensor_msgs::PointCloud2& msg, pcl::PCLPointCloud2& cloud);
+/// The cloud's fields as PCL describes them.
+std::vector<pcl::PCLPointField> pclFields(const sensor_msgs::PointCloud2& msg);
+/// Where x, y, z sit in the cloud's points; throws Error naming `name` (see XyzLayout::of).
+XyzLayout xyzLayout(const sensor_msgs::PointCloud2& msg, const std::string& name);
 
 }  // namespace flexcloud::ros_conv

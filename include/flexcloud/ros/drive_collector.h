@@ -20,6 +20,7 @@ class DriveCollector {
   /// Keeps at most this many fixes and poses each (an hour at 100 Hz is 360000); beyond it the
   /// oldest half is dropped and counted, so memory stays bounded on an endless live feed.
   explicit DriveCollector(std::size_t max_messages = 2000000) : max_(max_messages) {}
+  void setLimit(std::size_t max_messages);
 
   void handleFix(const sensor_msgs::NavSatFix& msg);
   void handleOdometry(const nav_msgs::Odometry& msg);

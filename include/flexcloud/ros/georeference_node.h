@@ -1,14 +1,13 @@
 #pragma once
 // The ROS side of flexcloud, owned by the nodelet and by the standalone node alike: collects the
 // drive (live topics or a bag, through one DriveCollector), runs the core pipeline on a worker
-// thread when asked, publishes the result. No algorithm lives here.
+// thread when asked, shows the result (result_publisher.h). No algorithm lives here.
 
 #include <dynamic_reconfigure/server.h>
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <std_srvs/Trigger.h>
-#include <tf2_ros/static_transform_broadcaster.h>
 
 #include <condition_variable>
 #include <future>
@@ -19,78 +18,81 @@
 
 #include "flexcloud/Georeference.h"
 #include "flexcloud/GeoreferenceConfig.h"
+#include "flexcloud/LoadMap.h"
 #include "flexcloud/Save.h"
-#include "flexcloud/cloud_warp.h"
-#include "flexcloud/io/outputs.h"
+#include "flexcloud/cancel.h"
 #include "flexcloud/ros/drive_collector.h"
 #include "flexcloud/ros/node_params.h"
+#include "flexcloud/ros/result_publisher.h"
 
 namespace flexcloud {
 
 class GeoreferenceNode {
  public:
-  /// Reads and checks the parameters (throws Error naming every bad value; nothing is started
-  /// then), subscribes or starts reading ~bag, advertises, starts the worker. Never blocks.
+  /// Reads and checks the parameters, subscribes or starts reading ~bag, advertises, starts the
+  /// worker. Never blocks and never throws for bad parameters: it logs the fatal line and
+  /// answers every service with the reason instead (see startupError()).
   GeoreferenceNode(ros::NodeHandle nh, ros::NodeHandle pnh);
   ~GeoreferenceNode();
   GeoreferenceNode(const GeoreferenceNode&) = delete;
   GeoreferenceNode& operator=(const GeoreferenceNode&) = delete;
 
+  /// Why the node did not start (bad parameters); empty when it runs.
+  const std::string& startupError() const { return startup_error_; }
+
   /// Runs the pipeline on the worker and waits for it. Refused (success false) while another
-  /// run is going or queued. control_points > 0 / stddev_threshold > 0 become the node's values.
+  /// run is going or queued. control_points > 0 / stddev_threshold > 0 become the node's values
+  /// after the same range check as dynamic_reconfigure's.
   flexcloud::Georeference::Response georeference(int control_points, double stddev_threshold);
-  /// Writes the latest result's files into `dir`.
+  /// Writes the published result's files into `dir` (relative: to the working folder).
   flexcloud::Save::Response save(const std::string& dir);
-  /// Forgets every fix and pose collected so far.
-  void reset();
+  /// Forgets every fix and pose collected so far and withdraws the result; in bag mode the bag
+  /// is read again.
+  std_srvs::Trigger::Response reset();
+  /// Loads the map to warp from `file` (empty: ~map_file).
+  flexcloud::LoadMap::Response loadMap(const std::string& file);
 
  private:
-  /// Everything one finished run produced.
-  struct State {
-    GeoreferenceResult result;
-    Params params;
-    FrameNames frames;
-    sensor_msgs::PointCloud2ConstPtr map;  ///< warped, in the ENU frame; null without a map
-    MapInfo map_info;
-    double seconds = 0.0;
-  };
   struct Job {
-    Params params;
-    std::shared_ptr<std::promise<flexcloud::Georeference::Response>> reply;  // null: recompute
+    NodeParams params;
+    std::shared_ptr<std::promise<flexcloud::Result>> reply;  // null: recompute or bag end
   };
 
+  void start();
+  void advertiseServices();
   void subscribe();
-  void advertise();
+  void startBagRead();
   void onMap(const sensor_msgs::PointCloud2ConstPtr& msg);
-  bool onGeoreference(flexcloud::Georeference::Request& req,
-                      flexcloud::Georeference::Response& res);
-  bool onSave(flexcloud::Save::Request& req, flexcloud::Save::Response& res);
-  bool onReset(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
   void onReconfigure(GeoreferenceConfig& config, uint32_t level);
-  void pushConfig(const Params& p);
+  void pushConfig(const NodeParams& p);
 
   void workerLoop();
-  void readBagThread();
-  void loadMapFile();
-  std::shared_ptr<const State> run(const Params& params);
-  void publish(const State& s);
-  flexcloud::Georeference::Response describe(const State& s) const;
+  bool waitForJob(Job& job);
+  void readBag();
+  /// Loads `file` into map_; returns the error ("" on success) and the point count.
+  std::string readMapFile(const std::string& file, std::uint64_t* points);
+  std::shared_ptr<const NodeResult> run(const NodeParams& params, const CancelToken& cancel);
+  sensor_msgs::PointCloud2ConstPtr warpMap(const NodeParams& params, const GeoreferenceResult& r,
+                                           const CancelToken& cancel, MapInfo& info);
+  /// Shows a finished run (or its failure) unless a reset came in between.
+  flexcloud::Result finish(std::shared_ptr<const NodeResult> result, const std::string& error,
+                           std::uint64_t generation);
+  flexcloud::Georeference::Response refused(const std::string& why) const;
 
   // Declared first, destroyed last: the node handles and services below still reach it when
   // they go (a queue destroyed before them made the nodelet crash on unload).
   ros::CallbackQueue service_queue_;
   ros::NodeHandle nh_;
   ros::NodeHandle pnh_;
-  ros::NodeHandle service_nh_;  // services on their own queue and spinner (see below)
+  ros::NodeHandle service_nh_;  // services on their own queue and spinner (see start())
   std::unique_ptr<ros::AsyncSpinner> service_spinner_;
   std::string name_;
-  NodeParams params_;  // guarded by mutex_ once the worker runs; first for the initializers
+  std::string startup_error_;
+  NodeParams params_;  // guarded by mutex_ once the worker runs
   DriveCollector collector_;
   std::vector<ros::Subscriber> subscribers_;
-  ros::Publisher map_pub_, origin_pub_, path_gnss_pub_, path_slam_pub_, path_aligned_pub_,
-      path_sheet_pub_, cp_pub_, tet_pub_, dev_pub_;
   std::vector<ros::ServiceServer> services_;
-  tf2_ros::StaticTransformBroadcaster tf_;
+  std::unique_ptr<ResultPublisher> publisher_;
 
   boost::recursive_mutex config_mutex_;
   std::unique_ptr<dynamic_reconfigure::Server<GeoreferenceConfig>> reconfigure_;
@@ -103,10 +105,13 @@ class GeoreferenceNode {
   std::optional<Job> service_job_;
   bool recompute_pending_ = false;
   std::chrono::steady_clock::time_point recompute_at_;
-  std::shared_ptr<const State> state_;
-  sensor_msgs::PointCloud2ConstPtr map_;  ///< as received / loaded, map frame
-  std::string map_error_;                 ///< why ~map_file could not be loaded
+  std::shared_ptr<const NodeResult> result_;  ///< the published result; null: none
+  std::uint64_t generation_ = 0;              ///< raised by every reset
+  std::shared_ptr<CancelToken> run_cancel_;   ///< of the run going, if any
+  sensor_msgs::PointCloud2ConstPtr map_;      ///< as received / loaded, map frame
+  std::string map_error_;                     ///< why the map file could not be loaded
   bool bag_done_ = true;
+  bool bag_stop_ = false;
   std::string bag_error_;
 
   std::thread worker_;

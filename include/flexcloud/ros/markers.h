@@ -8,6 +8,9 @@
 
 namespace flexcloud::markers {
 
+/// An array that only clears what an earlier one showed (a withdrawn result).
+visualization_msgs::MarkerArray cleared(const std::string& frame);
+
 /// Control points at their GNSS position: spheres coloured by how far the rigid alignment left
 /// them (green 0 m to red >= 2 m), with that residual as text.
 visualization_msgs::MarkerArray controlPoints(const GeoreferenceResult& r, const std::string& frame,

@@ -1,43 +1,49 @@
 #pragma once
-// The node's parameters: the core Params plus what only the ROS node needs.
+// The node's parameters: the core Params plus what only the ROS node needs, in one table
+// (the core rows lifted, then the node's own), read from the parameter server and mapped to and
+// from dynamic_reconfigure through that table.
 
 #include <ros/node_handle.h>
 
 #include <string>
 
+#include "flexcloud/GeoreferenceConfig.h"
 #include "flexcloud/params.h"
 
 namespace flexcloud {
 
 struct NodeParams {
+  /// Every field at its default from nodeParamTable().
+  NodeParams();
+
   Params core;
-  /// Frame of the georeferenced outputs.
-  std::string enu_frame = "enu";
-  /// Frame of the SLAM map and poses; empty: the frame id of the incoming poses.
+  std::string enu_frame;
   std::string map_frame;
-  /// Type on the `odom` topic: odometry (nav_msgs/Odometry), pose (geometry_msgs/PoseStamped)
-  /// or path (nav_msgs/Path; the latest path replaces all poses).
-  std::string odom_type = "odometry";
-  /// Read `fix` and `odom` from this bag instead of subscribing.
+  std::string odom_type;
   std::string bag;
-  /// Map to warp; empty: the latest sensor_msgs/PointCloud2 on `map`.
   std::string map_file;
-  /// Georeference as soon as the bag has been read.
-  bool georeference_on_bag_end = false;
-  /// Seconds to wait after a dynamic_reconfigure change before recomputing (the latest wins).
-  double recompute_delay = 0.5;
-  /// Most fixes and poses kept (oldest half dropped beyond it, and counted).
-  int max_messages = 2000000;
-  /// Subscriber queue length.
-  int queue_size = 5000;
+  bool georeference_on_bag_end;
+  double recompute_delay;
+  int max_messages;
+  int queue_size;
 
   /// Every problem, joined by "; "; empty when usable. Includes core.validate().
   std::string validate() const;
 };
 
-/// Reads every parameter from the private node handle (keys: the field names; the core ones as
-/// in config/georeference.yaml). Throws Error naming every wrong value, e.g. a string where a
-/// number belongs, instead of falling back to the default.
+/// The parameter table of NodeParams: every core row, then the node's own.
+const ParamTable<NodeParams>& nodeParamTable();
+
+/// Reads every parameter of the table from the private node handle. Throws Error naming every
+/// wrong value, e.g. a string where a number belongs, instead of falling back to the default.
 NodeParams loadNodeParams(const ros::NodeHandle& pnh);
+
+/// The live rows of the table into a dynamic_reconfigure config, and back; fromConfig throws
+/// Error for a value that is not one of a parameter's choices.
+void toConfig(const NodeParams& p, GeoreferenceConfig& config);
+NodeParams fromConfig(const GeoreferenceConfig& config, NodeParams p);
+
+/// Checks one value against its row; "" when fine, else the problem naming the parameter.
+std::string checkParam(const std::string& name, const ParamValue& value);
 
 }  // namespace flexcloud

@@ -1,0 +1,130 @@
+#include "flexcloud/ros/result_publisher.h"
+
+#include <geometry_msgs/TransformStamped.h>
+#include <nav_msgs/Path.h>
+#include <sensor_msgs/NavSatFix.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include "flexcloud/ros/conversions.h"
+#include "flexcloud/ros/markers.h"
+
+namespace flexcloud {
+
+flexcloud::Result toResultMsg(const NodeResult* r, bool success, const std::string& message) {
+  flexcloud::Result m;
+  m.header.stamp = ros::Time::now();
+  m.success = success;
+  m.message = message;
+  m.has_result = r != nullptr;
+  if (r == nullptr) return m;
+  const GeoreferenceResult& g = r->result;
+  m.header.frame_id = r->frames.enu;
+  m.warnings = r->warnings;
+  m.fixes_used = static_cast<std::uint32_t>(g.gnss.points.size());
+  m.fixes_dropped = static_cast<std::uint32_t>(g.gnss.dropped.total());
+  m.poses = static_cast<std::uint32_t>(g.poses.size());
+  m.poses_matched = static_cast<std::uint32_t>(g.poses_matched);
+  m.control_points = static_cast<std::uint32_t>(g.control_points.points.size());
+  m.map_points = r->map_info.warp.points;
+  m.points_outside = r->map_info.warp.outside;
+  m.aligned = ros_conv::toDeviationMsg(g.metrics_aligned);
+  m.rubbersheet = ros_conv::toDeviationMsg(g.metrics_rubbersheet);
+  m.T_enu_map = ros_conv::toTransformMsg(g.T_enu_map);
+  m.scale = g.scale;
+  if (g.datum) {
+    m.datum_lat = g.datum->lat;
+    m.datum_lon = g.datum->lon;
+    m.datum_alt = g.datum->alt;
+  }
+  m.seconds = r->seconds;
+  for (const auto& row : nodeParamTable().rows()) {
+    flexcloud::Parameter p;
+    p.name = row.spec.name;
+    p.value = formatValue(row.spec, row.get(r->params));
+    m.parameters.push_back(p);
+  }
+  return m;
+}
+
+flexcloud::Georeference::Response toResponse(const flexcloud::Result& msg) {
+  flexcloud::Georeference::Response res;
+  res.success = msg.success;
+  res.message = msg.message;
+  if (!msg.success) return res;  // the numbers of an older result would mislead
+  res.warnings = msg.warnings;
+  res.fixes_used = msg.fixes_used;
+  res.fixes_dropped = msg.fixes_dropped;
+  res.poses = msg.poses;
+  res.poses_matched = msg.poses_matched;
+  res.control_points = msg.control_points;
+  res.map_points = msg.map_points;
+  res.points_outside = msg.points_outside;
+  res.aligned = msg.aligned;
+  res.rubbersheet = msg.rubbersheet;
+  res.T_enu_map = msg.T_enu_map;
+  res.scale = msg.scale;
+  res.datum_lat = msg.datum_lat;
+  res.datum_lon = msg.datum_lon;
+  res.datum_alt = msg.datum_alt;
+  res.seconds = msg.seconds;
+  return res;
+}
+
+ResultPublisher::ResultPublisher(ros::NodeHandle& pnh) {
+  using visualization_msgs::MarkerArray;
+  map_ = pnh.advertise<sensor_msgs::PointCloud2>("global_map", 1, true);
+  origin_ = pnh.advertise<sensor_msgs::NavSatFix>("origin", 1, true);
+  path_gnss_ = pnh.advertise<nav_msgs::Path>("path_gnss", 1, true);
+  path_slam_ = pnh.advertise<nav_msgs::Path>("path_slam", 1, true);
+  path_aligned_ = pnh.advertise<nav_msgs::Path>("path_aligned", 1, true);
+  path_sheet_ = pnh.advertise<nav_msgs::Path>("path_rubbersheet", 1, true);
+  control_points_ = pnh.advertise<MarkerArray>("control_points", 1, true);
+  tetrahedra_ = pnh.advertise<MarkerArray>("tetrahedra", 1, true);
+  deviation_ = pnh.advertise<MarkerArray>("deviation", 1, true);
+  result_ = pnh.advertise<flexcloud::Result>("result", 1, true);
+}
+
+void ResultPublisher::show(const NodeResult& s) {
+  const auto& r = s.result;
+  const ros::Time now = ros::Time::now();
+  const std::string& enu = s.frames.enu;
+  if (s.map) map_.publish(s.map);
+  geometry_msgs::TransformStamped tf;
+  tf.header.stamp = now;
+  tf.header.frame_id = enu;
+  tf.child_frame_id = s.frames.map;
+  tf.transform = ros_conv::toTransformMsg(r.T_enu_map);
+  tf_.sendTransform(tf);
+  if (r.datum) {
+    RawFix origin;
+    origin.fix = GeoFix{now.toSec(), r.datum->lat, r.datum->lon, r.datum->alt,
+                        Eigen::Vector3d::Constant(std::nan(""))};
+    origin_.publish(ros_conv::toNavSatFix(origin, enu));
+  }
+  path_gnss_.publish(ros_conv::toPath(gnssTrajectory(r), enu));
+  path_slam_.publish(ros_conv::toPath(r.poses, s.frames.map));
+  path_aligned_.publish(ros_conv::toPath(r.aligned, enu));
+  path_sheet_.publish(ros_conv::toPath(r.rubbersheet, enu));
+  control_points_.publish(markers::controlPoints(r, enu, now));
+  tetrahedra_.publish(markers::tetrahedra(r, enu, now));
+  deviation_.publish(markers::deviation(r, enu, now));
+}
+
+void ResultPublisher::withdraw(const FrameNames& frames) {
+  sensor_msgs::PointCloud2 empty;
+  empty.header.stamp = ros::Time::now();
+  empty.header.frame_id = frames.enu;
+  map_.publish(empty);
+  nav_msgs::Path none;
+  none.header = empty.header;
+  for (auto* p : {&path_gnss_, &path_aligned_, &path_sheet_}) p->publish(none);
+  none.header.frame_id = frames.map;
+  path_slam_.publish(none);
+  for (auto* p : {&control_points_, &tetrahedra_, &deviation_}) {
+    p->publish(markers::cleared(frames.enu));
+  }
+}
+
+void ResultPublisher::report(const flexcloud::Result& msg) { result_.publish(msg); }
+
+}  // namespace flexcloud

@@ -1,0 +1,92 @@
+#pragma once
+// Helpers shared by the unit, end-to-end and ROS tests: temporary files, simulated drives as
+// pipeline input, map error against the simulator's truth, and the message of a failing call.
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "flexcloud/cloud_warp.h"
+#include "flexcloud/georeference.h"
+#include "flexcloud/sim/sim_cloud.h"
+
+namespace flexcloud::test {
+
+/// Writes `bytes` into a file of that name under the test's temporary folder; returns its path.
+inline std::string writeTempFile(const std::string& name, const std::string& bytes) {
+  const std::string path = ::testing::TempDir() + name;
+  std::ofstream(path, std::ios::binary) << bytes;
+  return path;
+}
+
+/// A folder of its own under the temporary folder (per process), created empty.
+inline std::filesystem::path tempFolder(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("flexcloud_" + name + "_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+/// The message of the flexcloud::Error that f() throws, or "" when it does not throw.
+template <typename F>
+std::string errorOf(F&& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+/// The simulated drive's fixes and SLAM poses as pipeline input.
+inline DriveInput inputOf(const sim::SimDrive& d) {
+  DriveInput in;
+  in.fixes = d.fixes;
+  in.poses = d.slam;
+  return in;
+}
+
+/// Parameters whose datum is the simulator's, so results compare with its truth directly.
+inline Params atSimDatum(const sim::SimDrive& d, Params p = {}) {
+  p.datum_lat = d.datum.lat;
+  p.datum_lon = d.datum.lon;
+  p.datum_alt = d.datum.alt;
+  return p;
+}
+
+/// Warps the drive's map with the result and returns its error against the truth; checks that
+/// every point was kept and stayed finite.
+inline ErrorStats mapError(const sim::SimDrive& d, const GeoreferenceResult& r,
+                           WarpStats* stats = nullptr) {
+  pcl::PCLPointCloud2 map = sim::slamCloud(d.map);
+  const WarpStats s = warpCloud(map, *r.sheet, 2);
+  EXPECT_EQ(s.points, d.map.slam.size());
+  EXPECT_EQ(s.non_finite, 0u);
+  if (stats) *stats = s;
+  return compareClouds(map, sim::truthCloud(d.map), [](const Eigen::Vector3d& x) { return x; });
+}
+
+/// What a shell command printed (stdout and stderr) and its exit code (-1: killed).
+struct ShellResult {
+  int code = -1;
+  std::string output;
+};
+
+inline ShellResult sh(const std::string& cmd) {
+  ShellResult r;
+  FILE* p = ::popen((cmd + " 2>&1").c_str(), "r");
+  if (p == nullptr) return r;
+  char buf[4096];
+  while (std::fgets(buf, sizeof(buf), p) != nullptr) r.output += buf;
+  const int status = ::pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+}  // namespace flexcloud::test

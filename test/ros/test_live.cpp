@@ -1,0 +1,369 @@
+// The nodelet on live topics (live.test): a simulated drive published on fix, odom and map.
+#include <dynamic_reconfigure/client.h>
+#include <nav_msgs/Path.h>
+#include <std_srvs/Trigger.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <filesystem>
+#include <future>
+
+#include "flexcloud/GeoreferenceConfig.h"
+#include "flexcloud/LoadMap.h"
+#include "flexcloud/Save.h"
+#include "flexcloud/io/pcd_io.h"
+#include "flexcloud/ros/conversions.h"
+#include "flexcloud/sim/sim_cloud.h"
+#include "ros_test_util.h"
+
+namespace flexcloud::test {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// A simulated drive published on the live topics.
+class Live : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    sim::SimParams sp;
+    sp.seed = 5;
+    sp.map_points = 200000;
+    drive_ = new sim::SimDrive(sim::simulateDrive(sp));
+  }
+  static void TearDownTestSuite() { delete drive_; }
+
+  /// Publishes the map and the first `share` of the fixes and poses.
+  void publishDrive(double share = 1.0) {
+    // The publishers outlive this function: destroyed, they would drop what is still queued.
+    ros::NodeHandle nh;
+    fix_pub_ = nh.advertise<sensor_msgs::NavSatFix>("/fix", 10000);
+    odom_pub_ = nh.advertise<nav_msgs::Odometry>("/odom", 10000);
+    map_pub_ = nh.advertise<Cloud>("/map", 1, true);
+    ros::Publisher& fix = fix_pub_;
+    ros::Publisher& odom = odom_pub_;
+    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(20.0);
+    while ((fix.getNumSubscribers() == 0 || odom.getNumSubscribers() == 0 ||
+            map_pub_.getNumSubscribers() == 0) && ros::WallTime::now() < end) {
+      ros::WallDuration(0.05).sleep();
+    }
+    ASSERT_GT(fix.getNumSubscribers(), 0u);
+    Cloud map;
+    ros_conv::toCloudMsg(sim::slamCloud(drive_->map), "map", map);
+    map_pub_.publish(map);
+    std::size_t k = 0;
+    const auto part = [share](std::size_t n) { return static_cast<std::size_t>(share * n); };
+    for (std::size_t i = 0; i < part(drive_->fixes.size()); ++i) {
+      fix.publish(ros_conv::toNavSatFix(drive_->fixes[i], "gnss"));
+      if (++k % 500 == 0) ros::WallDuration(0.05).sleep();  // stay within the queues
+    }
+    for (std::size_t i = 0; i < part(drive_->slam.size()); ++i) {
+      odom.publish(ros_conv::toOdometry(drive_->slam[i], "map", "base_link"));
+      if (++k % 500 == 0) ros::WallDuration(0.05).sleep();
+    }
+  }
+
+  /// Calls until the node has everything that was published (messages are still in flight).
+  flexcloud::Georeference::Response callWhenComplete() {
+    flexcloud::Georeference::Response r;
+    for (int i = 0; i < 40; ++i) {
+      r = call();
+      if (r.success && r.poses == drive_->slam.size() && r.fixes_used == drive_->fixes.size() &&
+          r.map_points == drive_->map.slam.size()) {
+        break;
+      }
+      ros::WallDuration(0.25).sleep();
+    }
+    return r;
+  }
+
+  static void reset() {
+    const auto r = callService<std_srvs::Trigger>("/flexcloud/reset");
+    ASSERT_TRUE(r.response.success) << r.response.message;
+  }
+
+  static sim::SimDrive* drive_;
+  ros::Publisher fix_pub_, odom_pub_, map_pub_;
+};
+sim::SimDrive* Live::drive_ = nullptr;
+
+TEST_F(Live, NoDataIsRefusedWithAMessage) {
+  std_srvs::Trigger reset;
+  ASSERT_TRUE(ros::service::waitForService("/flexcloud/reset", ros::Duration(20.0)));
+  ASSERT_TRUE(ros::service::call("/flexcloud/reset", reset));
+  const auto r = call();
+  EXPECT_FALSE(r.success);
+  EXPECT_NE(r.message.find("no GNSS fix received yet on /fix"), std::string::npos) << r.message;
+}
+
+TEST_F(Live, TopicsInAccurateMapOutTfAndMarkersToo) {
+  publishDrive();
+  const ros::Time before = ros::Time::now();
+  const auto r = callWhenComplete();
+  ASSERT_TRUE(r.success) << r.message;
+  EXPECT_EQ(r.poses, drive_->slam.size());
+  EXPECT_EQ(r.poses_matched, drive_->slam.size());
+  EXPECT_EQ(r.control_points, 200u);
+  EXPECT_EQ(r.map_points, 200000u);
+  EXPECT_EQ(r.points_outside, 0u);
+  EXPECT_LT(r.rubbersheet.mae, 0.1);
+  EXPECT_GT(r.aligned.mae, 1.0);
+  EXPECT_NEAR(r.datum_lat, 48.262, 1e-9);  // the datum given in live.test
+
+  const auto map = mapAfter(before, 20.0);
+  ASSERT_TRUE(map);
+  EXPECT_EQ(map->header.frame_id, "enu");
+  EXPECT_EQ(map->width * map->height, 200000u);
+  const ErrorStats e = againstTruth(*map, sim::truthCloud(drive_->map));
+  std::printf("live: map vs truth RMSE %.3f m, MAX %.3f m\n", e.rmse, e.max);
+  EXPECT_LE(e.rmse, 0.25);
+
+  tf2_ros::Buffer buffer;
+  tf2_ros::TransformListener listener(buffer);
+  const auto tf = buffer.lookupTransform("enu", "map", ros::Time(0), ros::Duration(10.0));
+  EXPECT_NEAR(tf.transform.translation.x, r.T_enu_map.translation.x, 1e-6);
+  EXPECT_NEAR(tf.transform.translation.y, r.T_enu_map.translation.y, 1e-6);
+  EXPECT_NEAR(tf.transform.translation.z, r.T_enu_map.translation.z, 1e-6);
+  EXPECT_NEAR(std::abs(tf.transform.rotation.w), std::abs(r.T_enu_map.rotation.w), 1e-9);
+  EXPECT_NEAR(tf.transform.rotation.z * (tf.transform.rotation.w < 0 ? -1 : 1),
+              r.T_enu_map.rotation.z * (r.T_enu_map.rotation.w < 0 ? -1 : 1), 1e-9);
+
+  ros::NodeHandle nh;
+  const auto cps = ros::topic::waitForMessage<visualization_msgs::MarkerArray>(
+      "/flexcloud/control_points", nh, ros::Duration(10.0));
+  ASSERT_TRUE(cps);
+  EXPECT_EQ(sphereCount(*cps), r.control_points);
+  const auto tets = ros::topic::waitForMessage<visualization_msgs::MarkerArray>(
+      "/flexcloud/tetrahedra", nh, ros::Duration(10.0));
+  ASSERT_TRUE(tets);
+  ASSERT_GE(tets->markers.size(), 2u);
+  EXPECT_GT(tets->markers.back().points.size(), 2u * r.control_points);
+  const auto dev = ros::topic::waitForMessage<visualization_msgs::MarkerArray>(
+      "/flexcloud/deviation", nh, ros::Duration(10.0));
+  ASSERT_TRUE(dev);
+  EXPECT_EQ(dev->markers.back().points.size(), r.poses);
+  const auto path = ros::topic::waitForMessage<nav_msgs::Path>("/flexcloud/path_rubbersheet", nh,
+                                                               ros::Duration(10.0));
+  ASSERT_TRUE(path);
+  EXPECT_EQ(path->poses.size(), r.poses);
+  const auto origin = ros::topic::waitForMessage<sensor_msgs::NavSatFix>("/flexcloud/origin", nh,
+                                                                         ros::Duration(10.0));
+  ASSERT_TRUE(origin);
+  EXPECT_NEAR(origin->latitude, 48.262, 1e-9);
+}
+
+TEST_F(Live, ReconfigureRecomputesAndRepublishes) {
+  publishDrive();
+  const auto first = callWhenComplete();
+  ASSERT_TRUE(first.success) << first.message;
+  const auto before = mapAfter(ros::Time(0), 20.0);
+  ASSERT_TRUE(before);
+  const ros::Time stamp = before->header.stamp;
+
+  dynamic_reconfigure::Client<flexcloud::GeoreferenceConfig> client("/flexcloud");
+  flexcloud::GeoreferenceConfig config;
+  ASSERT_TRUE(client.getCurrentConfiguration(config, ros::Duration(10.0)));
+  EXPECT_EQ(config.control_points, static_cast<int>(first.control_points));
+  config.control_points = 40;
+  ASSERT_TRUE(client.setConfiguration(config));
+
+  const auto after = mapAfter(stamp, 20.0);
+  ASSERT_TRUE(after) << "no map republished after the reconfigure";
+  ASSERT_EQ(after->data.size(), before->data.size());
+  EXPECT_NE(after->data, before->data);  // fewer control points move the points differently
+  ros::NodeHandle nh;
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(10.0);
+  std::size_t spheres = 0;
+  while (spheres != 40 && ros::WallTime::now() < end) {
+    const auto cps = ros::topic::waitForMessage<visualization_msgs::MarkerArray>(
+        "/flexcloud/control_points", nh, ros::Duration(1.0));
+    if (cps) spheres = sphereCount(*cps);
+  }
+  EXPECT_EQ(spheres, 40u);
+  // An invalid change is refused and the values in use stay.
+  config.interpolation = "cubic";
+  client.setConfiguration(config);
+  ASSERT_TRUE(client.getCurrentConfiguration(config, ros::Duration(10.0)));
+  EXPECT_EQ(config.interpolation, "spline");
+}
+
+TEST_F(Live, ASecondCallDuringARunIsRefused) {
+  publishDrive();
+  ASSERT_TRUE(callWhenComplete().success);
+  // A run on a 200k map takes tens of milliseconds at least; two calls started together overlap.
+  auto a = std::async(std::launch::async, [] { return call(); });
+  auto b = std::async(std::launch::async, [] { return call(); });
+  const auto ra = a.get(), rb = b.get();
+  EXPECT_NE(ra.success, rb.success) << ra.message << " / " << rb.message;
+  const auto& refused = ra.success ? rb : ra;
+  EXPECT_NE(refused.message.find("a georeferencing run is going"), std::string::npos)
+      << refused.message;
+  EXPECT_TRUE(call().success);  // and the node still works afterwards
+}
+
+/// ~result (12): the counts, metrics and the parameters of the published result.
+TEST_F(Live, ResultTopicDescribesThePublishedResult) {
+  publishDrive();
+  const ros::Time before = ros::Time::now();
+  const auto r = callWhenComplete();
+  ASSERT_TRUE(r.success) << r.message;
+  const auto msg = resultWhere(before, [](const Result& m) { return m.has_result; });
+  ASSERT_TRUE(msg);
+  EXPECT_TRUE(msg->success);
+  EXPECT_EQ(msg->message, r.message);
+  EXPECT_EQ(msg->poses, r.poses);
+  EXPECT_EQ(msg->fixes_used, r.fixes_used);
+  EXPECT_EQ(msg->control_points, r.control_points);
+  EXPECT_EQ(msg->map_points, r.map_points);
+  EXPECT_DOUBLE_EQ(msg->rubbersheet.mae, r.rubbersheet.mae);
+  EXPECT_EQ(parameterOf(*msg, "control_points"), std::to_string(r.control_points));
+  EXPECT_EQ(parameterOf(*msg, "interpolation"), "spline");
+  EXPECT_EQ(parameterOf(*msg, "datum_lat"), "48.262");
+  EXPECT_EQ(parameterOf(*msg, "queue_size"), "5000");
+}
+
+/// A retune whose recompute fails (12): the published result stays, and ~result and the log say
+/// so, with the parameters the published map was made with.
+TEST_F(Live, AFailedRecomputeKeepsThePublishedResultAndSaysSo) {
+  publishDrive();
+  const auto good = callWhenComplete();
+  ASSERT_TRUE(good.success) << good.message;
+  const auto map = mapAfter(ros::Time(0), 20.0);
+  ASSERT_TRUE(map);
+  const ros::Time before = ros::Time::now();
+  dynamic_reconfigure::Client<flexcloud::GeoreferenceConfig> client("/flexcloud");
+  flexcloud::GeoreferenceConfig config;
+  ASSERT_TRUE(client.getCurrentConfiguration(config, ros::Duration(10.0)));
+  const double threshold = config.stddev_threshold;
+  config.stddev_threshold = 0.001;  // in range, but no fix is that good: no control point
+  ASSERT_TRUE(client.setConfiguration(config));
+  const auto failed = resultWhere(before, [](const Result& m) { return !m.success; });
+  ASSERT_TRUE(failed) << "no failure reported on ~result";
+  EXPECT_NE(failed->message.find("std-dev threshold of 0.001"), std::string::npos)
+      << failed->message;
+  EXPECT_TRUE(failed->has_result);
+  EXPECT_EQ(parameterOf(*failed, "stddev_threshold"), "0.1");
+  EXPECT_EQ(failed->map_points, good.map_points);
+  const auto still = ros::topic::waitForMessage<Cloud>("/flexcloud/global_map", ros::Duration(5.0));
+  ASSERT_TRUE(still);
+  EXPECT_EQ(still->header.stamp, map->header.stamp);  // not replaced
+  config.stddev_threshold = threshold;
+  ASSERT_TRUE(client.setConfiguration(config));
+  EXPECT_TRUE(resultWhere(before, [](const Result& m) { return m.success && m.has_result; }));
+}
+
+/// A request beyond the ranges dynamic_reconfigure allows is refused, naming the field (12).
+TEST_F(Live, ARequestOutOfRangeIsRefusedNamingTheField) {
+  const auto few = call(2);
+  EXPECT_FALSE(few.success);
+  EXPECT_NE(few.message.find("control_points 2 is not in [4, 100000]"), std::string::npos)
+      << few.message;
+  const auto bad = call(0, -1.0);
+  EXPECT_FALSE(bad.success);
+  EXPECT_NE(bad.message.find("stddev_threshold -1 m is not in [0.001, 100]"), std::string::npos)
+      << bad.message;
+}
+
+/// ~reset forgets the result too (13): the map and paths are withdrawn, ~result says so, and
+/// ~save refuses until a new result exists.
+TEST_F(Live, ResetWithdrawsTheResultAndSaveRefuses) {
+  publishDrive();
+  ASSERT_TRUE(callWhenComplete().success);
+  const ros::Time before = ros::Time::now();
+  reset();
+  const auto empty = mapAfter(before, 10.0);
+  ASSERT_TRUE(empty);
+  EXPECT_EQ(empty->width * empty->height, 0u);
+  const auto path = messageWhere<nav_msgs::Path>(
+      "/flexcloud/path_rubbersheet", [](const nav_msgs::Path& p) { return p.poses.empty(); }, 10.0);
+  EXPECT_TRUE(path) << "the path was not withdrawn";
+  const auto msg = resultWhere(before, [](const Result& m) { return !m.has_result; });
+  ASSERT_TRUE(msg);
+  EXPECT_TRUE(msg->parameters.empty());
+  flexcloud::Save save;
+  save.request.directory = (fs::temp_directory_path() / "flexcloud_after_reset").string();
+  save = callService("/flexcloud/save", save);
+  EXPECT_FALSE(save.response.success);
+  EXPECT_NE(save.response.message.find("no result to save"), std::string::npos)
+      << save.response.message;
+  EXPECT_FALSE(fs::exists(save.request.directory));
+}
+
+/// ~save with a relative folder writes into the node's working folder and names the absolute
+/// path it wrote (13).
+TEST_F(Live, SaveWithARelativeFolderNamesTheAbsolutePath) {
+  publishDrive();
+  ASSERT_TRUE(callWhenComplete().success);
+  flexcloud::Save save;
+  save.request.directory = "flexcloud_relative_save_" + std::to_string(::getpid());
+  save = callService("/flexcloud/save", save);
+  ASSERT_TRUE(save.response.success) << save.response.message;
+  const std::string prefix = "wrote the result into ";
+  ASSERT_EQ(save.response.message.rfind(prefix, 0), 0u) << save.response.message;
+  const fs::path dir = save.response.message.substr(prefix.size());
+  EXPECT_TRUE(dir.is_absolute()) << dir;
+  EXPECT_EQ(dir.filename(), save.request.directory);
+  EXPECT_TRUE(fs::exists(dir / "report.json"));
+  EXPECT_TRUE(fs::exists(dir / "map_georeferenced.pcd"));
+  fs::remove_all(dir);
+}
+
+/// ~load_map replaces the map to warp without a restart (13); a file that cannot be read is a
+/// one-line failure that leaves the map in use.
+TEST_F(Live, LoadMapReplacesTheMapToWarp) {
+  publishDrive();
+  ASSERT_TRUE(callWhenComplete().success);
+  const fs::path file = fs::temp_directory_path() / ("flexcloud_load_" + std::to_string(::getpid()) + ".pcd");
+  const pcl::PCLPointCloud2 full = sim::slamCloud(drive_->map);
+  pcl::PCLPointCloud2 half = full;
+  half.width = full.width / 2;
+  half.height = 1;
+  half.row_step = half.width * half.point_step;
+  half.data.resize(static_cast<std::size_t>(half.row_step));
+  writePcdBinary(file.string(), half);
+  flexcloud::LoadMap missing;
+  missing.request.file = "/nonexistent/map.pcd";
+  missing = callService("/flexcloud/load_map", missing);
+  EXPECT_FALSE(missing.response.success);
+  EXPECT_NE(missing.response.message.find("/nonexistent/map.pcd"), std::string::npos);
+  flexcloud::LoadMap load;
+  load.request.file = file.string();
+  load = callService("/flexcloud/load_map", load);
+  ASSERT_TRUE(load.response.success) << load.response.message;
+  EXPECT_EQ(load.response.points, half.width);
+  const auto r = call();
+  ASSERT_TRUE(r.success) << r.message;
+  EXPECT_EQ(r.map_points, half.width);
+  fs::remove(file);
+  // The live map topic takes over again with the next message on it.
+  publishDrive();
+  EXPECT_EQ(callWhenComplete().map_points, drive_->map.slam.size());
+}
+
+/// A result mostly outside the GNSS coverage says so (11): half the drive published, the whole
+/// map: the response, ~result and the log carry a warning with the share.
+TEST_F(Live, AMostlyRigidResultCarriesAWarningWithTheShare) {
+  reset();
+  publishDrive(0.25);
+  const ros::Time before = ros::Time::now();
+  flexcloud::Georeference::Response r;
+  for (int i = 0; i < 40; ++i) {
+    r = call();
+    if (r.success && r.map_points == drive_->map.slam.size()) break;
+    ros::WallDuration(0.25).sleep();
+  }
+  ASSERT_TRUE(r.success) << r.message;
+  ASSERT_FALSE(r.warnings.empty());
+  bool found = false;
+  for (const auto& w : r.warnings) {
+    found = found || w.find("of the map points lie beyond the GNSS coverage") != std::string::npos;
+  }
+  EXPECT_TRUE(found) << r.message;
+  EXPECT_NE(r.message.find("warning: "), std::string::npos);
+  EXPECT_GT(r.points_outside, drive_->map.slam.size() / 10);
+  const auto msg = resultWhere(before, [](const Result& m) { return m.has_result; });
+  ASSERT_TRUE(msg);
+  EXPECT_EQ(msg->warnings, r.warnings);
+  reset();
+}
+
+}  // namespace
+}  // namespace flexcloud::test
