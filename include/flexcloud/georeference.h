@@ -37,7 +37,7 @@ struct StageSeconds {
 /// their SLAM offset: the SLAM map holds that place twice (an unclosed loop). One warp of space
 /// cannot put both passes right.
 struct RevisitCheck {
-  std::size_t pairs = 0;        ///< pairs within kRevisitRadius of each other, different passes
+  std::size_t pairs = 0;        ///< pairs within 5 m of each other, on passes 50 m of path apart
   std::size_t conflicting = 0;  ///< of those, disagreeing by more than 0.5 m + 3 sigma
   double worst = 0.0;           ///< largest disagreement, metres
 };

@@ -46,14 +46,32 @@ std::vector<double> arcWeights(const std::vector<Eigen::Vector3d>& pts) {
   return w;
 }
 
-Eigen::Isometry3d alignTrajectory(const GeoreferenceResult& r, const Params& params,
-                                  double& scale) {
+/// The poses whose GNSS may anchor the result (see isUsableGnss).
+std::vector<bool> usablePoses(const Trajectory& poses,
+                              const std::vector<std::optional<GnssPoint>>& gnss,
+                              const Params& params) {
+  std::vector<bool> usable(poses.size());
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    usable[i] = isUsableGnss(gnss[i], poses[i].stamp, params);
+  }
+  return usable;
+}
+
+/// Rigid (and, for the report, similarity) Umeyama fit of the usable poses to their GNSS.
+struct Alignment {
+  Eigen::Isometry3d T_enu_map = Eigen::Isometry3d::Identity();
+  double scale = 1.0;
+};
+
+Alignment alignTrajectory(const Trajectory& poses,
+                          const std::vector<std::optional<GnssPoint>>& gnss,
+                          const std::vector<bool>& usable, const Params& params) {
   std::vector<Eigen::Vector3d> src;
   std::vector<Eigen::Vector3d> dst;
-  for (std::size_t i = 0; i < r.poses.size(); ++i) {
-    if (!isUsableGnss(r.gnss_at_pose[i], r.poses[i].stamp, params)) continue;
-    src.push_back(r.poses[i].position);
-    dst.push_back(r.gnss_at_pose[i]->position);
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    if (!usable[i]) continue;
+    src.push_back(poses[i].position);
+    dst.push_back(gnss[i]->position);
   }
   if (src.size() < 3) {
     throw Error("alignment: " + std::to_string(src.size()) +
@@ -61,19 +79,31 @@ Eigen::Isometry3d alignTrajectory(const GeoreferenceResult& r, const Params& par
                 std::to_string(params.stddev_threshold) + " m, at least 3 are needed");
   }
   const std::vector<double> w = arcWeights(src);
-  scale = umeyama(src, dst, w, true).scale;
-  return umeyama(src, dst, w, false).rigid();
+  return {umeyama(src, dst, w, false).rigid(), umeyama(src, dst, w, true).scale};
 }
 
-std::array<Eigen::Vector3d, 8> makeCuboid(const GeoreferenceResult& r, const Params& params) {
+Trajectory transformed(const Trajectory& poses, const Eigen::Isometry3d& t) {
+  Trajectory out = poses;
+  for (auto& p : out) {
+    p.position = t * p.position;
+    p.orientation = Eigen::Quaterniond(t.linear() * p.orientation.toRotationMatrix());
+  }
+  return out;
+}
+
+/// The corners of the axis-aligned box around the aligned trajectory and the GNSS, grown by the
+/// margins.
+std::array<Eigen::Vector3d, 8> makeCuboid(const Trajectory& aligned,
+                                          const std::vector<std::optional<GnssPoint>>& gnss,
+                                          const Params& params) {
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
   Eigen::Vector3d hi = -lo;
-  for (std::size_t i = 0; i < r.aligned.size(); ++i) {
-    lo = lo.cwiseMin(r.aligned[i].position);
-    hi = hi.cwiseMax(r.aligned[i].position);
-    if (r.gnss_at_pose[i]) {
-      lo = lo.cwiseMin(r.gnss_at_pose[i]->position);
-      hi = hi.cwiseMax(r.gnss_at_pose[i]->position);
+  for (std::size_t i = 0; i < aligned.size(); ++i) {
+    lo = lo.cwiseMin(aligned[i].position);
+    hi = hi.cwiseMax(aligned[i].position);
+    if (gnss[i]) {
+      lo = lo.cwiseMin(gnss[i]->position);
+      hi = hi.cwiseMax(gnss[i]->position);
     }
   }
   const Eigen::Vector3d extent = hi - lo;
@@ -89,79 +119,87 @@ std::array<Eigen::Vector3d, 8> makeCuboid(const GeoreferenceResult& r, const Par
   return corners;
 }
 
-std::shared_ptr<const RubberSheet> buildSheet(const GeoreferenceResult& r) {
+std::shared_ptr<const RubberSheet> buildSheet(const ControlPointSelection& cps,
+                                              const Eigen::Isometry3d& T_enu_map,
+                                              const std::array<Eigen::Vector3d, 8>& cuboid) {
   // The triangulation lives in the aligned frame, where the cuboid is axis-aligned.
   std::vector<Eigen::Vector3d> src;
   std::vector<Eigen::Vector3d> dst;
-  for (const auto& cp : r.control_points.points) {
-    src.push_back(r.T_enu_map * cp.source);
+  for (const auto& cp : cps.points) {
+    src.push_back(T_enu_map * cp.source);
     dst.push_back(cp.target);
   }
   // The corners keep their rigidly aligned position, and so does everything beyond them. (Moving
   // them with a global affine fit was tried: on simulated drives it multiplied the map error,
   // since the vertical shear fitted on a near-flat drive grows toward the distant corners.)
-  for (const auto& c : r.cuboid_enu) {
+  for (const auto& c : cuboid) {
     src.push_back(c);
     dst.push_back(c);
   }
   Affine34 outside;
-  outside << r.T_enu_map.linear(), r.T_enu_map.translation();
-  return std::make_shared<RubberSheet>(src, dst, outside, r.T_enu_map);
+  outside << T_enu_map.linear(), T_enu_map.translation();
+  return std::make_shared<RubberSheet>(src, dst, outside, T_enu_map);
 }
 
-/// Error-driven refinement up to `total` control points (see Params::refine_fraction).
-void refineControlPoints(GeoreferenceResult& r, const Params& params, std::size_t total) {
-  const double kNaN = std::numeric_limits<double>::quiet_NaN();
-  std::vector<bool> usable(r.poses.size());
-  std::size_t first = r.poses.size(), last = 0;
-  for (std::size_t i = 0; i < r.poses.size(); ++i) {
-    usable[i] = isUsableGnss(r.gnss_at_pose[i], r.poses[i].stamp, params);
-    if (r.gnss_at_pose[i]) first = std::min(first, i), last = std::max(last, i);
+/// Deviation (m) of each usable pose, warped by the sheet, from its GNSS; NaN elsewhere.
+std::vector<double> sheetDeviation(const RubberSheet& sheet, const Trajectory& poses,
+                                   const std::vector<std::optional<GnssPoint>>& gnss,
+                                   const std::vector<bool>& usable) {
+  std::vector<double> deviation(poses.size(), std::numeric_limits<double>::quiet_NaN());
+  int hint = 0;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    if (!usable[i]) continue;
+    const auto loc = sheet.locateFrom(poses[i].position, hint);
+    if (!loc.outside) hint = loc.tet;
+    deviation[i] =
+        (RubberSheet::apply(sheet.affineAt(loc), poses[i].position) - gnss[i]->position).norm();
   }
-  const std::vector<double> arc = arcLength(positionsOf(r.poses));
+  return deviation;
+}
+
+/// Error-driven refinement of `cps` up to `total` control points (Params::refine_fraction).
+void refineControlPoints(ControlPointSelection& cps, const Trajectory& poses,
+                         const std::vector<std::optional<GnssPoint>>& gnss,
+                         const std::vector<bool>& usable, const Eigen::Isometry3d& T_enu_map,
+                         const std::array<Eigen::Vector3d, 8>& cuboid, std::size_t total) {
+  std::size_t first = poses.size(), last = 0;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    if (gnss[i]) first = std::min(first, i), last = std::max(last, i);
+  }
+  const std::vector<double> arc = arcLength(positionsOf(poses));
   // A refinement keeps 1/20 of the even spacing (at the full count) of path from its neighbours:
   // enough that a standstill gathers no control points, small enough not to cost accuracy
   // (a quarter of the spacing raised the real drive's MAX at 50 control points from 1.4 to 13 m).
   const double separation =
       0.05 * (arc[last] - arc[first]) / static_cast<double>(std::max<std::size_t>(1, total - 1));
-  while (r.control_points.points.size() < total) {
-    const auto sheet = buildSheet(r);
-    std::vector<double> deviation(r.poses.size(), kNaN);
-    int hint = 0;
-    for (std::size_t i = 0; i < r.poses.size(); ++i) {
-      if (!usable[i]) continue;
-      const auto loc = sheet->locateFrom(r.poses[i].position, hint);
-      if (!loc.outside) hint = loc.tet;
-      deviation[i] = (RubberSheet::apply(sheet->affineAt(loc), r.poses[i].position) -
-                      r.gnss_at_pose[i]->position)
-                         .norm();
-    }
-    const std::size_t have = r.control_points.points.size();
+  while (cps.points.size() < total) {
+    const auto sheet = buildSheet(cps, T_enu_map, cuboid);
+    const std::vector<double> deviation = sheetDeviation(*sheet, poses, gnss, usable);
+    const std::size_t have = cps.points.size();
     const std::size_t round = std::min(total - have, std::max<std::size_t>(1, have / 4));
-    const auto picks = pickRefinements(r.control_points, deviation, arc, separation, round,
-                                       kMinRefineDeviation);
+    const auto picks =
+        pickRefinements(cps, deviation, arc, separation, round, kMinRefineDeviation);
     if (picks.empty()) break;
-    addControlPoints(r.control_points, picks, r.poses, r.gnss_at_pose);
+    addControlPoints(cps, picks, poses, gnss);
   }
 }
 
-/// Warps a pose; `hint` carries the tetrahedron of the previous pose (a trajectory moves
-/// little from pose to pose, so the walk from there is short and no grid is needed).
-/// Finds pairs of control points on different passes over the same place (within 5 m of each
-/// other after the alignment, more than 50 m apart along the path) whose GNSS offset disagrees
-/// with their aligned SLAM offset.
-RevisitCheck checkRevisits(const GeoreferenceResult& r) {
+/// Finds pairs of control points on different passes over the same place (within kRadius of
+/// each other after the alignment, more than kOtherPass apart along the path) whose GNSS offset
+/// disagrees with their aligned SLAM offset.
+RevisitCheck checkRevisits(const ControlPointSelection& cps, const Trajectory& poses,
+                           const Eigen::Isometry3d& T_enu_map) {
   constexpr double kRadius = 5.0, kOtherPass = 50.0;
   RevisitCheck out;
-  const auto& cps = r.control_points.points;
-  const std::vector<double> arc = arcLength(positionsOf(r.poses));
+  const auto& pts = cps.points;
+  const std::vector<double> arc = arcLength(positionsOf(poses));
   CellMap<std::vector<std::size_t>> cells;
-  std::vector<Eigen::Vector3d> aligned(cps.size());
-  for (std::size_t i = 0; i < cps.size(); ++i) {
-    aligned[i] = r.T_enu_map * cps[i].source;
+  std::vector<Eigen::Vector3d> aligned(pts.size());
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    aligned[i] = T_enu_map * pts[i].source;
     cells[cellOf(aligned[i], kRadius)].push_back(i);
   }
-  for (std::size_t i = 0; i < cps.size(); ++i) {
+  for (std::size_t i = 0; i < pts.size(); ++i) {
     const Eigen::Vector3i key = cellOf(aligned[i], kRadius);
     for (int dx = -1; dx <= 1; ++dx) {
       for (int dy = -1; dy <= 1; ++dy) {
@@ -170,12 +208,12 @@ RevisitCheck checkRevisits(const GeoreferenceResult& r) {
           if (it == cells.end()) continue;
           for (std::size_t j : it->second) {
             if (j <= i || (aligned[j] - aligned[i]).norm() > kRadius ||
-                std::abs(arc[cps[j].pose_index] - arc[cps[i].pose_index]) < kOtherPass) {
+                std::abs(arc[pts[j].pose_index] - arc[pts[i].pose_index]) < kOtherPass) {
               continue;
             }
             ++out.pairs;
-            const double d = ((cps[j].target - cps[i].target) - (aligned[j] - aligned[i])).norm();
-            if (d > 0.5 + 3.0 * (cps[i].std_dev + cps[j].std_dev)) ++out.conflicting;
+            const double d = ((pts[j].target - pts[i].target) - (aligned[j] - aligned[i])).norm();
+            if (d > 0.5 + 3.0 * (pts[i].std_dev + pts[j].std_dev)) ++out.conflicting;
             out.worst = std::max(out.worst, d);
           }
         }
@@ -185,6 +223,8 @@ RevisitCheck checkRevisits(const GeoreferenceResult& r) {
   return out;
 }
 
+/// Warps a pose; `hint` carries the tetrahedron of the previous pose (a trajectory moves
+/// little from pose to pose, so the walk from there is short and no grid is needed).
 Pose warpPose(const RubberSheet& sheet, const Pose& p, int& hint) {
   const auto loc = sheet.locateFrom(p.position, hint);
   if (!loc.outside) hint = loc.tet;
@@ -195,6 +235,70 @@ Pose warpPose(const RubberSheet& sheet, const Pose& p, int& hint) {
                                        p.orientation.toRotationMatrix())
                         .normalized();
   return out;
+}
+
+Trajectory warpTrajectory(const RubberSheet& sheet, const Trajectory& poses) {
+  Trajectory out;
+  out.reserve(poses.size());
+  int hint = 0;
+  for (const auto& p : poses) out.push_back(warpPose(sheet, p, hint));
+  return out;
+}
+
+/// Deviation of a trajectory from the GNSS at every matched pose.
+ErrorStats deviationFromGnss(const Trajectory& t,
+                             const std::vector<std::optional<GnssPoint>>& gnss) {
+  std::vector<double> d;
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    if (gnss[i]) d.push_back((t[i].position - gnss[i]->position).norm());
+  }
+  return errorStats(d);
+}
+
+/// The GNSS and the poses, checked and prepared; throws when nothing usable is left.
+void prepareInput(const DriveInput& input, const Params& params, GeoreferenceResult& r) {
+  r.gnss = input.local_gnss.empty() ? prepareGeodeticGnss(input.fixes, params)
+                                    : prepareLocalGnss(input.local_gnss, params);
+  r.datum = r.gnss.datum;
+  r.poses = preparePoses(input.poses, r.pose_counts);
+  if (r.poses.empty()) {
+    throw Error("poses: none of the " + std::to_string(r.pose_counts.received) +
+                " poses is usable (" + std::to_string(r.pose_counts.invalid) + " invalid)");
+  }
+}
+
+/// The GNSS at every pose stamp; throws when no pose has any.
+void matchGnss(const Params& params, GeoreferenceResult& r) {
+  std::vector<double> stamps;
+  stamps.reserve(r.poses.size());
+  for (const auto& p : r.poses) stamps.push_back(p.stamp);
+  r.gnss_at_pose = interpolateGnss(r.gnss.points, stamps, params);
+  for (const auto& g : r.gnss_at_pose) r.poses_matched += g.has_value() ? 1 : 0;
+  if (r.poses_matched == 0) {
+    throw Error("no time overlap: GNSS spans " +
+                span(r.gnss.points.front().stamp, r.gnss.points.back().stamp) + ", poses span " +
+                span(r.poses.front().stamp, r.poses.back().stamp) +
+                " (GNSS gaps longer than max_gap are not bridged)");
+  }
+}
+
+/// A quarter (1 - refine_fraction) of the control points spread evenly, the rest refined.
+ControlPointSelection chooseControlPoints(const GeoreferenceResult& r,
+                                          const std::vector<bool>& usable, const Params& params) {
+  const auto total = static_cast<std::size_t>(params.control_points);
+  const auto refined = static_cast<std::size_t>(std::lround(params.refine_fraction * total));
+  Params even = params;
+  even.control_points = static_cast<int>(std::max<std::size_t>(4, total - refined));
+  ControlPointSelection cps = selectControlPoints(r.poses, r.gnss_at_pose, even);
+  cps.requested = total;
+  if (cps.points.size() < 4) {
+    throw Error("control points: " + std::to_string(cps.points.size()) + " usable of " +
+                std::to_string(cps.requested) + " requested (" + std::to_string(r.poses_matched) +
+                " poses with GNSS, std-dev threshold " + std::to_string(params.stddev_threshold) +
+                " m); at least 4 are needed");
+  }
+  refineControlPoints(cps, r.poses, r.gnss_at_pose, usable, r.T_enu_map, r.cuboid_enu, total);
+  return cps;
 }
 
 }  // namespace
@@ -255,73 +359,32 @@ GeoreferenceResult georeference(const DriveInput& input, const Params& params) {
   }
   GeoreferenceResult r;
   Stopwatch watch;
-  r.gnss = input.local_gnss.empty() ? prepareGeodeticGnss(input.fixes, params)
-                                    : prepareLocalGnss(input.local_gnss, params);
-  r.datum = r.gnss.datum;
-  r.poses = preparePoses(input.poses, r.pose_counts);
-  if (r.poses.empty()) {
-    throw Error("poses: none of the " + std::to_string(r.pose_counts.received) +
-                " poses is usable (" + std::to_string(r.pose_counts.invalid) + " invalid)");
-  }
+  prepareInput(input, params, r);
   r.seconds.gnss = watch.lap();
-
-  std::vector<double> stamps;
-  stamps.reserve(r.poses.size());
-  for (const auto& p : r.poses) stamps.push_back(p.stamp);
-  r.gnss_at_pose = interpolateGnss(r.gnss.points, stamps, params);
-  for (const auto& g : r.gnss_at_pose) r.poses_matched += g.has_value() ? 1 : 0;
-  if (r.poses_matched == 0) {
-    throw Error("no time overlap: GNSS spans " +
-                span(r.gnss.points.front().stamp, r.gnss.points.back().stamp) + ", poses span " +
-                span(r.poses.front().stamp, r.poses.back().stamp) +
-                " (GNSS gaps longer than max_gap are not bridged)");
-  }
+  matchGnss(params, r);
   r.seconds.interpolation = watch.lap();
 
-  r.T_enu_map = alignTrajectory(r, params, r.scale);
-  r.aligned = r.poses;
-  for (auto& p : r.aligned) {
-    p.position = r.T_enu_map * p.position;
-    p.orientation = Eigen::Quaterniond(r.T_enu_map.linear() * p.orientation.toRotationMatrix());
-  }
+  const std::vector<bool> usable = usablePoses(r.poses, r.gnss_at_pose, params);
+  const Alignment a = alignTrajectory(r.poses, r.gnss_at_pose, usable, params);
+  r.T_enu_map = a.T_enu_map;
+  r.scale = a.scale;
+  r.aligned = transformed(r.poses, r.T_enu_map);
   r.seconds.alignment = watch.lap();
 
-  const auto total = static_cast<std::size_t>(params.control_points);
-  const auto refined = static_cast<std::size_t>(std::lround(params.refine_fraction * total));
-  Params even = params;
-  even.control_points = static_cast<int>(std::max<std::size_t>(4, total - refined));
-  r.control_points = selectControlPoints(r.poses, r.gnss_at_pose, even);
-  r.control_points.requested = total;
-  if (r.control_points.points.size() < 4) {
-    throw Error("control points: " + std::to_string(r.control_points.points.size()) +
-                " usable of " + std::to_string(r.control_points.requested) + " requested (" +
-                std::to_string(r.poses_matched) + " poses with GNSS, std-dev threshold " +
-                std::to_string(params.stddev_threshold) + " m); at least 4 are needed");
-  }
-  r.cuboid_enu = makeCuboid(r, params);
-  refineControlPoints(r, params, total);
+  r.cuboid_enu = makeCuboid(r.aligned, r.gnss_at_pose, params);
+  r.control_points = chooseControlPoints(r, usable, params);
   r.seconds.control_points = watch.lap();
-
-  r.sheet = buildSheet(r);
+  r.sheet = buildSheet(r.control_points, r.T_enu_map, r.cuboid_enu);
   r.seconds.triangulation = watch.lap();
 
-  r.rubbersheet.reserve(r.poses.size());
-  int hint = 0;
-  for (const auto& p : r.poses) r.rubbersheet.push_back(warpPose(*r.sheet, p, hint));
-  std::vector<double> dev_aligned;
-  std::vector<double> dev_sheet;
-  for (std::size_t i = 0; i < r.poses.size(); ++i) {
-    if (!r.gnss_at_pose[i]) continue;
-    dev_aligned.push_back((r.aligned[i].position - r.gnss_at_pose[i]->position).norm());
-    dev_sheet.push_back((r.rubbersheet[i].position - r.gnss_at_pose[i]->position).norm());
-  }
-  r.metrics_aligned = errorStats(dev_aligned);
-  r.metrics_rubbersheet = errorStats(dev_sheet);
+  r.rubbersheet = warpTrajectory(*r.sheet, r.poses);
+  r.metrics_aligned = deviationFromGnss(r.aligned, r.gnss_at_pose);
+  r.metrics_rubbersheet = deviationFromGnss(r.rubbersheet, r.gnss_at_pose);
   for (const auto& cp : r.control_points.points) {
     r.residual_aligned.push_back((r.aligned[cp.pose_index].position - cp.target).norm());
     r.residual_rubbersheet.push_back((r.rubbersheet[cp.pose_index].position - cp.target).norm());
   }
-  r.revisits = checkRevisits(r);
+  r.revisits = checkRevisits(r.control_points, r.poses, r.T_enu_map);
   r.seconds.trajectory_warp = watch.lap();
   return r;
 }

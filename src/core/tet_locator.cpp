@@ -172,6 +172,13 @@ TetLocator::SubBlock TetLocator::subdivide(int x, int y, int z, int s, int hint,
 }
 
 void TetLocator::build(int threads, const std::vector<Eigen::Vector3d>* sample) {
+  sizeGrid();
+  const std::vector<Location> vertex = locateGridVertices(threads);
+  const std::vector<MixedCell> mixed = classifyCells(vertex, occupiedCells(sample));
+  packBlocks(subdivideMixed(mixed, threads));
+}
+
+void TetLocator::sizeGrid() {
   const Eigen::Vector3d extent = (hi_ - lo_).cwiseMax(1e-9);
   const std::size_t wanted = std::clamp(kCellsPerTet * tets_.size(), kMinCells, kMaxCells);
   const double h = std::cbrt(extent.prod() / static_cast<double>(wanted));
@@ -179,43 +186,56 @@ void TetLocator::build(int threads, const std::vector<Eigen::Vector3d>* sample) 
     n_(a) = static_cast<int>(std::clamp(std::ceil(extent(a) / h), 1.0, 2048.0));
     scale_(a) = n_(a) / extent(a);
   }
+}
+
+std::vector<TetLocator::Location> TetLocator::locateGridVertices(int threads) const {
+  // Each thread walks its slabs, starting where it ended.
   const int nx = n_.x() + 1, ny = n_.y() + 1, nz = n_.z() + 1;
-  // Level 1: locate every grid vertex; each thread walks its slabs, starting where it ended.
   std::vector<Location> vertex(static_cast<std::size_t>(nx) * ny * nz);
-  parallelRanges(static_cast<std::size_t>(nz), static_cast<std::size_t>(threadCount(threads)), threads, [&](std::size_t, std::size_t z0, std::size_t z1) {
-    int hint = 0;
-    for (auto z = static_cast<int>(z0); z < static_cast<int>(z1); ++z) {
-      for (int y = 0; y < ny; ++y) {
-        for (int x = 0; x < nx; ++x) {
-          const Location loc = walk(corner(x, y, z), hint);
-          hint = loc.tet;
-          vertex[(static_cast<std::size_t>(z) * ny + y) * nx + x] = loc;
-        }
-      }
-    }
-  });
+  parallelRanges(static_cast<std::size_t>(nz), static_cast<std::size_t>(threadCount(threads)),
+                 threads, [&](std::size_t, std::size_t z0, std::size_t z1) {
+                   int hint = 0;
+                   for (auto z = static_cast<int>(z0); z < static_cast<int>(z1); ++z) {
+                     for (int y = 0; y < ny; ++y) {
+                       for (int x = 0; x < nx; ++x) {
+                         const Location loc = walk(corner(x, y, z), hint);
+                         hint = loc.tet;
+                         vertex[(static_cast<std::size_t>(z) * ny + y) * nx + x] = loc;
+                       }
+                     }
+                   }
+                 });
+  return vertex;
+}
+
+std::vector<bool> TetLocator::occupiedCells(const std::vector<Eigen::Vector3d>* sample) const {
   // Sub-cells only where sample points are: without a sample (a few points to transform, not a
   // map) level 1 and the walk do.
   std::vector<bool> occupied(static_cast<std::size_t>(n_.prod()), false);
-  if (sample != nullptr) {
-    for (const auto& p : *sample) {
-      if (p.allFinite() && (p.array() >= lo_.array()).all() && (p.array() <= hi_.array()).all()) {
-        occupied[cellOf(p)] = true;
-      }
+  if (sample == nullptr) return occupied;
+  for (const auto& p : *sample) {
+    if (p.allFinite() && (p.array() >= lo_.array()).all() && (p.array() <= hi_.array()).all()) {
+      occupied[cellOf(p)] = true;
     }
   }
+  return occupied;
+}
+
+std::vector<TetLocator::MixedCell> TetLocator::classifyCells(const std::vector<Location>& vertex,
+                                                             const std::vector<bool>& occupied) {
+  const int nx = n_.x() + 1, ny = n_.y() + 1;
+  auto at = [&](int x, int y, int z) -> const Location& {
+    return vertex[(static_cast<std::size_t>(z) * ny + y) * nx + x];
+  };
   cell_.assign(static_cast<std::size_t>(n_.prod()), 0);
-  std::vector<std::array<int, 4>> mixed;  // x, y, z, hint
-  std::size_t busy = 0;                   // mixed cells that hold sample points
+  std::vector<MixedCell> mixed;
   for (int z = 0; z < n_.z(); ++z) {
     for (int y = 0; y < n_.y(); ++y) {
       for (int x = 0; x < n_.x(); ++x) {
-        const Location& first = vertex[(static_cast<std::size_t>(z) * ny + y) * nx + x];
+        const Location& first = at(x, y, z);
         bool inside = !first.outside;
         for (int c = 1; c < 8 && inside; ++c) {
-          const Location& o =
-              vertex[(static_cast<std::size_t>(z + (c >> 2)) * ny + y + ((c >> 1) & 1)) * nx + x +
-                     (c & 1)];
+          const Location& o = at(x + (c & 1), y + ((c >> 1) & 1), z + (c >> 2));
           inside = !o.outside && o.tet == first.tet;
         }
         const std::size_t idx = (static_cast<std::size_t>(z) * n_.y() + y) * n_.x() + x;
@@ -223,36 +243,52 @@ void TetLocator::build(int threads, const std::vector<Eigen::Vector3d>* sample) 
           cell_[idx] = first.tet;
         } else {
           cell_[idx] = -static_cast<int>(mixed.size()) - 1;
-          // An empty cell keeps a single sub-cell: just a start for the walk.
-          mixed.push_back({x, y, z, occupied[idx] ? first.tet : -first.tet - 1});
-          busy += occupied[idx] ? 1 : 0;
+          mixed.push_back({x, y, z, first.tet, occupied[idx]});
         }
       }
     }
   }
-  // Level 2: blocks for the mixed cells, as fine as the budget allows and the cell needs.
+  return mixed;
+}
+
+std::vector<TetLocator::SubBlock> TetLocator::subdivideMixed(const std::vector<MixedCell>& mixed,
+                                                             int threads) const {
+  // As fine as the budget allows (shared by the mixed cells that hold sample points) and the
+  // cell needs.
+  std::size_t busy = 0;
+  for (const auto& c : mixed) busy += c.occupied ? 1 : 0;
   const int s_max = static_cast<int>(std::clamp(
       std::floor(std::cbrt(static_cast<double>(kSubBudget) / std::max<std::size_t>(1, busy))),
       1.0, static_cast<double>(kMaxSub)));
   std::vector<SubBlock> subs(mixed.size());
-  parallelRanges(mixed.size(), static_cast<std::size_t>(threadCount(threads)), threads, [&](std::size_t, std::size_t b0, std::size_t b1) {
-    for (std::size_t b = b0; b < b1; ++b) {
-      const auto& c = mixed[b];
-      if (c[3] < 0) {  // no sample point here: a single sub-cell, a start for the walk
-        subs[b].sub = {-1};
-        subs[b].candidates = {{-c[3] - 1, -1, -1, -1}};
-        continue;
-      }
-      // A coarse try first; cells that stay mostly mixed get the finest the budget allows.
-      int s = std::min(4, s_max);
-      double full = 0.0;
-      subs[b] = subdivide(c[0], c[1], c[2], s, c[3], &full);
-      if (full < kFullEnough && s < s_max) subs[b] = subdivide(c[0], c[1], c[2], s_max, c[3], &full);
-    }
-  });
-  blocks_.resize(mixed.size());
+  parallelRanges(mixed.size(), static_cast<std::size_t>(threadCount(threads)), threads,
+                 [&](std::size_t, std::size_t b0, std::size_t b1) {
+                   for (std::size_t b = b0; b < b1; ++b) subs[b] = subdivideOne(mixed[b], s_max);
+                 });
+  return subs;
+}
+
+TetLocator::SubBlock TetLocator::subdivideOne(const MixedCell& c, int s_max) const {
+  if (!c.occupied) {  // no sample point here: a single sub-cell, a start for the walk
+    SubBlock one;
+    one.sub = {-1};
+    one.candidates = {{c.hint, -1, -1, -1}};
+    return one;
+  }
+  // A coarse try first; cells that stay mostly mixed get the finest the budget allows.
+  const int s = std::min(4, s_max);
+  double full = 0.0;
+  SubBlock block = subdivide(c.x, c.y, c.z, s, c.hint, &full);
+  if (full < kFullEnough && s < s_max) block = subdivide(c.x, c.y, c.z, s_max, c.hint, &full);
+  return block;
+}
+
+void TetLocator::packBlocks(const std::vector<SubBlock>& subs) {
+  blocks_.resize(subs.size());
   std::size_t total = 0, lists = 0;
   for (const auto& s : subs) total += s.sub.size(), lists += s.candidates.size();
+  sub_.clear();
+  candidates_.clear();
   sub_.reserve(total);
   candidates_.reserve(lists);
   for (std::size_t b = 0; b < subs.size(); ++b) {

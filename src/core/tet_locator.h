@@ -68,6 +68,24 @@ class TetLocator {
     std::vector<int> sub;  ///< >= 0 full; < 0: -(candidates + 1), local index
     std::vector<Candidates> candidates;
   };
+  /// A level-1 cell that is not inside one tetrahedron.
+  struct MixedCell {
+    int x, y, z;
+    int hint;       ///< the tetrahedron at its first corner: a start for the walk
+    bool occupied;  ///< holds sample points
+  };
+
+  // The steps of build().
+  void sizeGrid();
+  std::vector<Location> locateGridVertices(int threads) const;
+  std::vector<bool> occupiedCells(const std::vector<Eigen::Vector3d>* sample) const;
+  /// Fills cell_ for the cells inside one tetrahedron; returns the others.
+  std::vector<MixedCell> classifyCells(const std::vector<Location>& vertex,
+                                       const std::vector<bool>& occupied);
+  std::vector<SubBlock> subdivideMixed(const std::vector<MixedCell>& mixed, int threads) const;
+  SubBlock subdivideOne(const MixedCell& c, int s_max) const;
+  void packBlocks(const std::vector<SubBlock>& subs);
+
   /// Sub-cells of level-1 cell (x, y, z) at resolution s.
   SubBlock subdivide(int x, int y, int z, int s, int hint, double* full_fraction) const;
   /// -1 when p lies in the tetrahedron, else a face (opposite vertex i) p lies beyond.

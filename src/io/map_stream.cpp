@@ -193,90 +193,117 @@ struct FdGuard {
   }
 };
 
+/// Copies the map's body into the output in the kernel, chunk by chunk, on its own thread,
+/// ahead of the warp; waitFor() blocks until a range has been copied.
+class BodyCopier {
+ public:
+  BodyCopier(MapJob& job, int in_fd, int out_fd, std::size_t out_offset, const std::string& out)
+      : thread_([=, &job] { copyAll(job, in_fd, out_fd, out_offset, out); }) {}
+  ~BodyCopier() { stop(); }
+  BodyCopier(const BodyCopier&) = delete;
+  BodyCopier& operator=(const BodyCopier&) = delete;
+
+  /// Waits until points [0, points) are copied; rethrows a failure of the copy.
+  void waitFor(std::size_t points) {
+    std::unique_lock<std::mutex> lock(m_);
+    cv_.wait(lock, [&] { return copied_ >= points || error_; });
+    if (error_) std::rethrow_exception(error_);
+  }
+  /// Ends the copy thread; rethrows a failure of the copy.
+  void finish() {
+    stop();
+    if (error_) std::rethrow_exception(error_);
+  }
+
+ private:
+  void copyAll(MapJob& job, int in_fd, int out_fd, std::size_t out_offset, const std::string& out) {
+    const PcdHeader& h = job.header();
+    const std::size_t step = h.point_step;
+    try {
+      for (std::size_t first = 0; first < h.points && !stop_; first += job.chunk()) {
+        const std::size_t n = std::min(job.chunk(), h.points - first);
+        const auto t0 = Clock::now();
+        copyRange(in_fd, static_cast<off_t>(h.data_offset + first * step), out_fd,
+                  static_cast<off_t>(out_offset + first * step), n * step, out);
+        job.info().read_seconds += since(t0);
+        std::lock_guard<std::mutex> lock(m_);
+        copied_ = first + n;
+        cv_.notify_all();
+      }
+    } catch (...) {
+      std::lock_guard<std::mutex> lock(m_);
+      error_ = std::current_exception();
+      cv_.notify_all();
+    }
+  }
+  void stop() {
+    stop_ = true;
+    if (thread_.joinable()) thread_.join();
+  }
+
+  std::mutex m_;
+  std::condition_variable cv_;
+  std::size_t copied_ = 0;  ///< points copied so far (guarded by m_)
+  std::exception_ptr error_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;  ///< last: starts once the members above exist
+};
+
+/// Opens the output's temporary file and reserves its whole size; -1 (nothing written) where
+/// the filesystem cannot reserve space: a mapped write could then die of SIGBUS on a full disk.
+int reserveOutput(const AtomicFile& file, const std::string& out, std::size_t bytes) {
+  FdGuard fd{::open(file.tempPath().c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0644)};
+  if (fd.fd < 0) throw Error(out + ": cannot open for writing: " + std::strerror(errno));
+  const int rc = ::posix_fallocate(fd.fd, 0, static_cast<off_t>(bytes));
+  if (rc == EOPNOTSUPP || rc == EINVAL || rc == ENOSYS) return -1;
+  if (rc != 0) {
+    throw Error(out + ": cannot reserve " + std::to_string(bytes) + " bytes: " + std::strerror(rc));
+  }
+  return fd.release();
+}
+
+/// Warps points [first, first + n) of the output file in place through a memory map that is
+/// unmapped again at once, so resident memory stays at a chunk.
+void warpMapped(MapJob& job, int fd, std::size_t offset, std::size_t first, std::size_t n,
+                const std::string& out) {
+  static const auto page = static_cast<std::size_t>(::sysconf(_SC_PAGESIZE));
+  const std::size_t start = offset / page * page;
+  const std::size_t length = offset + n * job.header().point_step - start;
+  void* base = ::mmap(nullptr, length, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_POPULATE, fd,
+                      static_cast<off_t>(start));
+  if (base == MAP_FAILED) throw Error(out + ": cannot map the output: " + std::strerror(errno));
+  struct Unmap {
+    void* p;
+    std::size_t len;
+    ~Unmap() { ::munmap(p, len); }
+  } unmap{base, length};
+  job.warp(static_cast<std::uint8_t*>(base) + (offset - start), first, n);
+}
+
 /// The fast way: reserve the output, copy the body in the kernel (a copier thread runs ahead
-/// chunk by chunk), warp it in place through memory-mapped windows unmapped chunk by chunk, so
-/// resident memory stays at a chunk. Returns false, having written nothing, where the filesystem
-/// cannot reserve space: a mapped write could then die of SIGBUS on a full disk.
+/// chunk by chunk) and warp it in place chunk by chunk through memory maps. Returns false,
+/// having written nothing, where the filesystem cannot reserve space.
 bool warpInPlace(MapJob& job, const std::string& in, const std::string& out) {
   const PcdHeader& h = job.header();
   const std::string text = binaryPcdHeader(job.fields(), h.point_step,
                                            static_cast<std::uint32_t>(h.width),
                                            static_cast<std::uint32_t>(h.height));
-  const std::size_t step = h.point_step;
-  const std::size_t body = h.points * step;
   AtomicFile file(out);
-  FdGuard fd{::open(file.tempPath().c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0644)};
-  if (fd.fd < 0) throw Error(out + ": cannot open for writing: " + std::strerror(errno));
-  const int rc = ::posix_fallocate(fd.fd, 0, static_cast<off_t>(text.size() + body));
-  if (rc == EOPNOTSUPP || rc == EINVAL || rc == ENOSYS) return false;  // nothing written yet
-  if (rc != 0) {
-    throw Error(out + ": cannot reserve " + std::to_string(text.size() + body) + " bytes: " +
-                std::strerror(rc));
-  }
+  FdGuard fd{reserveOutput(file, out, text.size() + h.points * h.point_step)};
+  if (fd.fd < 0) return false;
   if (::pwrite(fd.fd, text.data(), text.size(), 0) != static_cast<ssize_t>(text.size())) {
     throw Error(out + ": write failed: " + std::strerror(errno));
   }
   FdGuard in_fd{::open(in.c_str(), O_RDONLY | O_CLOEXEC)};
   if (in_fd.fd < 0) throw Error(in + ": cannot open: " + std::strerror(errno));
-
-  const std::size_t chunk = job.chunk();
-  std::mutex m;
-  std::condition_variable cv;
-  std::size_t copied = 0;  // points copied so far (guarded by m)
-  std::exception_ptr copy_error;
-  std::atomic<bool> stop{false};
-  std::thread copier([&] {
-    try {
-      for (std::size_t first = 0; first < h.points && !stop; first += chunk) {
-        const std::size_t n = std::min(chunk, h.points - first);
-        const auto t0 = Clock::now();
-        copyRange(in_fd.fd, static_cast<off_t>(h.data_offset + first * step), fd.fd,
-                  static_cast<off_t>(text.size() + first * step), n * step, out);
-        job.info().read_seconds += since(t0);
-        std::lock_guard<std::mutex> lock(m);
-        copied = first + n;
-        cv.notify_all();
-      }
-    } catch (...) {
-      std::lock_guard<std::mutex> lock(m);
-      copy_error = std::current_exception();
-      cv.notify_all();
-    }
-  });
-  struct Joiner {
-    std::thread& t;
-    std::atomic<bool>& stop;
-    ~Joiner() {
-      stop = true;
-      if (t.joinable()) t.join();
-    }
-  } joiner{copier, stop};
+  BodyCopier copier(job, in_fd.fd, fd.fd, text.size(), out);
   job.prepare();  // builds the location grid while the copier runs
-
-  const auto page = static_cast<std::size_t>(::sysconf(_SC_PAGESIZE));
-  for (std::size_t first = 0; first < h.points; first += chunk) {
-    const std::size_t n = std::min(chunk, h.points - first);
-    {
-      std::unique_lock<std::mutex> lock(m);
-      cv.wait(lock, [&] { return copied >= first + n || copy_error; });
-      if (copy_error) std::rethrow_exception(copy_error);
-    }
-    const std::size_t offset = text.size() + first * step;
-    const std::size_t start = offset / page * page;
-    const std::size_t length = offset + n * step - start;
-    void* base = ::mmap(nullptr, length, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_POPULATE, fd.fd,
-                        static_cast<off_t>(start));
-    if (base == MAP_FAILED) throw Error(out + ": cannot map the output: " + std::strerror(errno));
-    struct Unmap {
-      void* p;
-      std::size_t len;
-      ~Unmap() { ::munmap(p, len); }
-    } unmap{base, length};
-    job.warp(static_cast<std::uint8_t*>(base) + (offset - start), first, n);
+  for (std::size_t first = 0; first < h.points; first += job.chunk()) {
+    const std::size_t n = std::min(job.chunk(), h.points - first);
+    copier.waitFor(first + n);
+    warpMapped(job, fd.fd, text.size() + first * h.point_step, first, n, out);
   }
-  stop = true;
-  copier.join();
-  if (copy_error) std::rethrow_exception(copy_error);
+  copier.finish();
   const auto t0 = Clock::now();
   if (::close(fd.release()) != 0) throw Error(out + ": write failed: " + std::strerror(errno));
   file.commit();

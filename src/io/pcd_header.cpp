@@ -29,124 +29,168 @@ std::size_t parseCount(const std::string& name, std::size_t line, const std::str
   return static_cast<std::size_t>(v);
 }
 
-}  // namespace
+/// One keyword line of a header: the keyword, its values and its line number.
+struct HeaderLine {
+  std::size_t line_no = 0;
+  std::string key;
+  std::vector<std::string> vals;
+};
 
-PcdHeader parsePcdHeader(const std::string& bytes, const std::string& name,
-                         std::uint64_t file_size) {
-  PcdHeader h;
-  h.file_size = file_size;
+/// The header's keyword lines one by one, comments and blank lines skipped.
+class HeaderLines {
+ public:
+  HeaderLines(const std::string& bytes, const std::string& name) : bytes_(bytes), name_(name) {}
+  /// The next keyword line; throws when the bytes end before a DATA line.
+  HeaderLine next() {
+    while (true) {
+      const std::size_t end = bytes_.find('\n', pos_);
+      if (end == std::string::npos) {
+        fail(name_, 0, pos_ == 0 ? "not a PCD file (empty or no header)"
+                                 : "the PCD header has no DATA line");
+      }
+      std::string line = bytes_.substr(pos_, end - pos_);
+      pos_ = end + 1;
+      ++lines_;
+      if (pos_ > kMaxHeader) fail(name_, 0, "the PCD header is longer than 64 KiB");
+      if (!line.empty() && line.back() == '\r') line.pop_back();
+      if (line.empty() || line[0] == '#') continue;
+      std::istringstream in(line);
+      HeaderLine h;
+      h.line_no = lines_;
+      in >> h.key;
+      for (std::string v; in >> v;) h.vals.push_back(v);
+      return h;
+    }
+  }
+  std::size_t offset() const { return pos_; }  ///< the byte after the last line read
+  std::size_t lines() const { return lines_; }
+
+ private:
+  const std::string& bytes_;
+  const std::string& name_;
+  std::size_t pos_ = 0;
+  std::size_t lines_ = 0;
+};
+
+/// The header's keywords as read, before they are checked against each other.
+struct RawHeader {
   std::vector<std::string> names;
   std::vector<std::size_t> sizes, counts;
   std::string types;
   bool have_fields = false, have_size = false, have_type = false, have_count = false;
-  bool have_width = false, have_points = false, have_data = false;
-  std::size_t pos = 0;
-  std::size_t line_no = 0;
-  while (!have_data) {
-    const std::size_t end = bytes.find('\n', pos);
-    if (end == std::string::npos) {
-      fail(name, 0, pos == 0 ? "not a PCD file (empty or no header)"
-                             : "the PCD header has no DATA line");
-    }
-    std::string line = bytes.substr(pos, end - pos);
-    pos = end + 1;
-    ++line_no;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty() || line[0] == '#') continue;
-    std::istringstream in(line);
-    std::string key;
-    in >> key;
-    std::vector<std::string> vals;
-    for (std::string v; in >> v;) vals.push_back(v);
-    const bool first_keyword = !have_fields && !have_size && !have_type && !have_width;
-    if (key == "VERSION") {
-      continue;
-    } else if (key == "FIELDS" || key == "COLUMNS") {
-      if (vals.empty() || vals.size() > kMaxFields) fail(name, line_no, "FIELDS lists no fields");
-      names = vals;
-      have_fields = true;
-    } else if (key == "SIZE") {
-      sizes.clear();
-      for (const auto& v : vals) {
-        const std::size_t s = parseCount(name, line_no, "SIZE", v, 8);
-        if (s != 1 && s != 2 && s != 4 && s != 8) fail(name, line_no, "SIZE " + v + " is not 1, 2, 4 or 8");
-        sizes.push_back(s);
-      }
-      have_size = true;
-    } else if (key == "TYPE") {
-      types.clear();
-      for (const auto& v : vals) {
-        if (v != "I" && v != "U" && v != "F") fail(name, line_no, "TYPE '" + v + "' is not I, U or F");
-        types.push_back(v[0]);
-      }
-      have_type = true;
-    } else if (key == "COUNT") {
-      counts.clear();
-      for (const auto& v : vals) {
-        const std::size_t c = parseCount(name, line_no, "COUNT", v, kMaxCount);
-        if (c == 0) fail(name, line_no, "COUNT 0 is not allowed");
-        counts.push_back(c);
-      }
-      have_count = true;
-    } else if (key == "WIDTH" || key == "HEIGHT" || key == "POINTS") {
-      if (vals.size() != 1) fail(name, line_no, key + " needs one value");
-      const std::size_t v = parseCount(name, line_no, key, vals[0], kMaxPoints);
-      if (key == "WIDTH") h.width = v, have_width = true;
-      if (key == "HEIGHT") h.height = v;
-      if (key == "POINTS") h.points = v, have_points = true;
-    } else if (key == "VIEWPOINT") {
-      if (vals.size() != 7) fail(name, line_no, "VIEWPOINT needs 7 values");
-    } else if (key == "DATA") {
-      if (vals.size() != 1) fail(name, line_no, "DATA needs one value");
-      if (vals[0] == "ascii") h.data = PcdHeader::Data::kAscii;
-      else if (vals[0] == "binary") h.data = PcdHeader::Data::kBinary;
-      else if (vals[0] == "binary_compressed") h.data = PcdHeader::Data::kBinaryCompressed;
-      else fail(name, line_no, "DATA '" + vals[0] + "' is not ascii, binary or binary_compressed");
-      have_data = true;
-    } else {
-      fail(name, line_no, first_keyword ? "not a PCD file (no PCD header)"
-                                        : "unknown PCD header keyword '" + key + "'");
-    }
-    if (pos > kMaxHeader) fail(name, 0, "the PCD header is longer than 64 KiB");
+  bool have_width = false, have_points = false;
+};
+
+void readSizes(const std::string& name, const HeaderLine& l, RawHeader& raw) {
+  raw.sizes.clear();
+  for (const auto& v : l.vals) {
+    const std::size_t s = parseCount(name, l.line_no, "SIZE", v, 8);
+    if (s != 1 && s != 2 && s != 4 && s != 8) fail(name, l.line_no, "SIZE " + v + " is not 1, 2, 4 or 8");
+    raw.sizes.push_back(s);
   }
-  if (!have_fields || !have_size || !have_type || !have_width) {
+  raw.have_size = true;
+}
+
+void readTypes(const std::string& name, const HeaderLine& l, RawHeader& raw) {
+  raw.types.clear();
+  for (const auto& v : l.vals) {
+    if (v != "I" && v != "U" && v != "F") fail(name, l.line_no, "TYPE '" + v + "' is not I, U or F");
+    raw.types.push_back(v[0]);
+  }
+  raw.have_type = true;
+}
+
+void readCounts(const std::string& name, const HeaderLine& l, RawHeader& raw) {
+  raw.counts.clear();
+  for (const auto& v : l.vals) {
+    const std::size_t c = parseCount(name, l.line_no, "COUNT", v, kMaxCount);
+    if (c == 0) fail(name, l.line_no, "COUNT 0 is not allowed");
+    raw.counts.push_back(c);
+  }
+  raw.have_count = true;
+}
+
+PcdHeader::Data readData(const std::string& name, const HeaderLine& l) {
+  if (l.vals.size() != 1) fail(name, l.line_no, "DATA needs one value");
+  if (l.vals[0] == "ascii") return PcdHeader::Data::kAscii;
+  if (l.vals[0] == "binary") return PcdHeader::Data::kBinary;
+  if (l.vals[0] == "binary_compressed") return PcdHeader::Data::kBinaryCompressed;
+  fail(name, l.line_no, "DATA '" + l.vals[0] + "' is not ascii, binary or binary_compressed");
+}
+
+/// Reads one keyword line into `raw` and `h`; throws for an unknown keyword or a bad value.
+void readKeyword(const std::string& name, const HeaderLine& l, RawHeader& raw, PcdHeader& h) {
+  const bool first_keyword = !raw.have_fields && !raw.have_size && !raw.have_type && !raw.have_width;
+  if (l.key == "VERSION") return;
+  if (l.key == "FIELDS" || l.key == "COLUMNS") {
+    if (l.vals.empty() || l.vals.size() > kMaxFields) fail(name, l.line_no, "FIELDS lists no fields");
+    raw.names = l.vals;
+    raw.have_fields = true;
+  } else if (l.key == "SIZE") {
+    readSizes(name, l, raw);
+  } else if (l.key == "TYPE") {
+    readTypes(name, l, raw);
+  } else if (l.key == "COUNT") {
+    readCounts(name, l, raw);
+  } else if (l.key == "WIDTH" || l.key == "HEIGHT" || l.key == "POINTS") {
+    if (l.vals.size() != 1) fail(name, l.line_no, l.key + " needs one value");
+    const std::size_t v = parseCount(name, l.line_no, l.key, l.vals[0], kMaxPoints);
+    if (l.key == "WIDTH") h.width = v, raw.have_width = true;
+    if (l.key == "HEIGHT") h.height = v;
+    if (l.key == "POINTS") h.points = v, raw.have_points = true;
+  } else if (l.key == "VIEWPOINT") {
+    if (l.vals.size() != 7) fail(name, l.line_no, "VIEWPOINT needs 7 values");
+  } else if (l.key == "DATA") {
+    h.data = readData(name, l);
+  } else {
+    fail(name, l.line_no, first_keyword ? "not a PCD file (no PCD header)"
+                                        : "unknown PCD header keyword '" + l.key + "'");
+  }
+}
+
+/// Checks that the field lists and the point counts agree and lays the fields out.
+void buildFields(const std::string& name, RawHeader& raw, PcdHeader& h) {
+  if (!raw.have_fields || !raw.have_size || !raw.have_type || !raw.have_width) {
     fail(name, 0, "the PCD header lacks FIELDS, SIZE, TYPE or WIDTH");
   }
-  if (!have_count) counts.assign(names.size(), 1);
-  if (sizes.size() != names.size() || types.size() != names.size() ||
-      counts.size() != names.size()) {
+  if (!raw.have_count) raw.counts.assign(raw.names.size(), 1);
+  const std::size_t n = raw.names.size();
+  if (raw.sizes.size() != n || raw.types.size() != n || raw.counts.size() != n) {
     fail(name, 0, "FIELDS, SIZE, TYPE and COUNT list different numbers of fields (" +
-                      std::to_string(names.size()) + ", " + std::to_string(sizes.size()) + ", " +
-                      std::to_string(types.size()) + ", " + std::to_string(counts.size()) + ")");
+                      std::to_string(n) + ", " + std::to_string(raw.sizes.size()) + ", " +
+                      std::to_string(raw.types.size()) + ", " + std::to_string(raw.counts.size()) +
+                      ")");
   }
   if (h.height == 0) fail(name, 0, "HEIGHT is 0");
-  if (!have_points) h.points = h.width * h.height;
+  if (!raw.have_points) h.points = h.width * h.height;
   if (h.width * h.height != h.points) {
     fail(name, 0, "WIDTH * HEIGHT (" + std::to_string(h.width) + " * " + std::to_string(h.height) +
                       ") is not POINTS (" + std::to_string(h.points) + ")");
   }
-  for (std::size_t i = 0; i < names.size(); ++i) {
-    if (types[i] == 'F' && sizes[i] != 4 && sizes[i] != 8) {
-      fail(name, 0, "field " + names[i] + ": a float of " + std::to_string(sizes[i]) + " bytes");
+  for (std::size_t i = 0; i < n; ++i) {
+    if (raw.types[i] == 'F' && raw.sizes[i] != 4 && raw.sizes[i] != 8) {
+      fail(name, 0, "field " + raw.names[i] + ": a float of " + std::to_string(raw.sizes[i]) +
+                        " bytes");
     }
-    PcdField f{names[i], sizes[i], types[i], counts[i], h.point_step};
+    PcdField f{raw.names[i], raw.sizes[i], raw.types[i], raw.counts[i], h.point_step};
     h.point_step += f.size * f.count;
     h.fields.push_back(f);
   }
-  h.data_offset = pos;
-  h.header_lines = line_no;
-  const std::uint64_t body = file_size >= pos ? file_size - pos : 0;
-  if (h.data == PcdHeader::Data::kBinary &&
-      body < static_cast<std::uint64_t>(h.points) * h.point_step) {
+}
+
+/// Checks that the body can hold the points the header promises. Nothing is allocated for
+/// points a body cannot hold: an ascii point takes at least a character and a separator per
+/// value; a compressed body unpacks to at most 4 GiB.
+void checkBody(const std::string& name, const PcdHeader& h) {
+  const std::uint64_t body = h.file_size >= h.data_offset ? h.file_size - h.data_offset : 0;
+  const std::uint64_t bytes = static_cast<std::uint64_t>(h.points) * h.point_step;
+  if (h.data == PcdHeader::Data::kBinary && body < bytes) {
     fail(name, 0, "the binary body holds " + std::to_string(body) + " bytes, the header promises " +
-                      std::to_string(static_cast<std::uint64_t>(h.points) * h.point_step) +
-                      " (file cut short?)");
+                      std::to_string(bytes) + " (file cut short?)");
   }
   if (h.data == PcdHeader::Data::kBinaryCompressed && h.points > 0 && body < 8) {
     fail(name, 0, "the compressed body is missing (file cut short?)");
   }
-  // Nothing is allocated for points a body cannot hold: an ascii point takes at least a
-  // character and a separator per value; a compressed body unpacks to at most 4 GiB.
   std::uint64_t values = 0;
   for (const auto& f : h.fields) values += f.count;
   if (h.data == PcdHeader::Data::kAscii && h.points > 0 &&
@@ -154,10 +198,27 @@ PcdHeader parsePcdHeader(const std::string& bytes, const std::string& name,
     fail(name, 0, "the ascii body (" + std::to_string(body) + " bytes) cannot hold " +
                       std::to_string(h.points) + " points (file cut short?)");
   }
-  if (h.data == PcdHeader::Data::kBinaryCompressed &&
-      static_cast<std::uint64_t>(h.points) * h.point_step > 0xFFFFFFFFull) {
+  if (h.data == PcdHeader::Data::kBinaryCompressed && bytes > 0xFFFFFFFFull) {
     fail(name, 0, "POINTS too many for a compressed PCD (more than 4 GiB unpacked)");
   }
+}
+
+}  // namespace
+
+PcdHeader parsePcdHeader(const std::string& bytes, const std::string& name,
+                         std::uint64_t file_size) {
+  PcdHeader h;
+  h.file_size = file_size;
+  RawHeader raw;
+  HeaderLines lines(bytes, name);
+  for (HeaderLine l = lines.next();; l = lines.next()) {
+    readKeyword(name, l, raw, h);
+    if (l.key == "DATA") break;
+  }
+  h.data_offset = lines.offset();
+  h.header_lines = lines.lines();
+  buildFields(name, raw, h);
+  checkBody(name, h);
   return h;
 }
 

@@ -92,118 +92,164 @@ std::set<std::uint64_t> checkChunk(const std::string& path, const std::uint8_t* 
   return starts;
 }
 
+/// One pass over a bag's records, checking each against the file and the others.
+class BagScan {
+ public:
+  explicit BagScan(const std::string& path) : path_(path), in_(path, std::ios::binary | std::ios::ate) {
+    if (!in_) throw Error(path + ": cannot open: " + std::strerror(errno));
+    size_ = static_cast<std::uint64_t>(in_.tellg());
+    in_.seekg(0);
+    char magic[sizeof(kMagic) - 1] = {};
+    in_.read(magic, sizeof(magic));
+    if (!in_ || std::memcmp(magic, kMagic, sizeof(magic)) != 0) {
+      throw Error(path + ": not a rosbag (version 2.0) file");
+    }
+    at_ = sizeof(magic);
+  }
+
+  void run() {
+    while (at_ < size_) {
+      records_.insert(at_);
+      const Fields f = readRecordHeader();
+      const auto op = f.find("op");
+      if (op == f.end() || op->second.size() != 1) throw Error(where() + " has no op field");
+      const bool consumed = onRecord(op->second[0], f);
+      at_ = data_at_ + dlen_;
+      if (!consumed) in_.seekg(static_cast<std::streamoff>(at_));
+    }
+    finish();
+  }
+
+ private:
+  std::string where() const { return path_ + ": record at byte " + std::to_string(at_); }
+
+  /// Reads the record's header fields and its data length; data_at_ and dlen_ then locate the
+  /// data.
+  Fields readRecordHeader() {
+    std::uint32_t hlen = 0;
+    if (size_ - at_ < 4) throw Error(where() + " is cut short");
+    in_.read(reinterpret_cast<char*>(&hlen), 4);
+    if (hlen > size_ - at_ - 4 || hlen > kMaxHeader) {
+      throw Error(where() + " claims a header of " + std::to_string(hlen) +
+                  " bytes (file cut short or corrupt; 'rosbag reindex' may repair it)");
+    }
+    buf_.resize(hlen);
+    in_.read(reinterpret_cast<char*>(buf_.data()), static_cast<std::streamsize>(hlen));
+    Fields f;
+    if (!in_ || !parseFields(buf_.data(), hlen, f)) throw Error(where() + " has a malformed header");
+    data_at_ = at_ + 4 + hlen + 4;
+    if (size_ - at_ - 4 - hlen < 4) throw Error(where() + " is cut short");
+    in_.read(reinterpret_cast<char*>(&dlen_), 4);
+    if (dlen_ > size_ - data_at_) {
+      throw Error(where() + " claims " + std::to_string(dlen_) + " bytes of data, the file holds " +
+                  std::to_string(size_ - data_at_) +
+                  " more (cut short? 'rosbag reindex' may repair it)");
+    }
+    return f;
+  }
+
+  /// Reads the record's data into buf_.
+  void readData() {
+    buf_.resize(dlen_);
+    in_.read(reinterpret_cast<char*>(buf_.data()), static_cast<std::streamsize>(dlen_));
+    if (!in_) throw Error(where() + " is cut short");
+  }
+
+  /// Checks one record; true when its data was read (the stream is then past it).
+  bool onRecord(char op, const Fields& f) {
+    switch (op) {
+      case 0x03:  // bag header
+        index_pos_ = number(f, "index_pos");
+        if (index_pos_ > size_) {
+          throw Error(where() + ": the index lies beyond the end of the file (cut short? "
+                                "'rosbag reindex' may repair it)");
+        }
+        return false;
+      case 0x05:
+        return onChunk(f);
+      case 0x06:  // chunk info
+        chunk_infos_.insert(number(f, "chunk_pos"));
+        return false;
+      case 0x04:
+        return onIndexData(f);
+      case 0x07: {  // connection
+        readData();
+        Fields conn;
+        if (!parseFields(buf_.data(), dlen_, conn)) throw Error(where() + ": malformed connection");
+        return true;
+      }
+      case 0x02:  // message
+        return false;
+      default:
+        throw Error(where() + " has an unknown op " + std::to_string(static_cast<int>(op)));
+    }
+  }
+
+  bool onChunk(const Fields& f) {
+    const auto comp = f.find("compression");
+    const std::uint64_t unpacked = number(f, "size");
+    if (comp == f.end()) throw Error(where() + ": chunk without compression field");
+    chunks_.insert(at_);
+    if (comp->second == "none") {
+      if (unpacked != dlen_) throw Error(where() + ": chunk size disagrees with its data");
+      readData();
+      in_chunk_ = checkChunk(path_, buf_.data(), dlen_, data_at_);
+      chunk_known_ = true;
+      return true;
+    }
+    chunk_known_ = false;  // a compressed chunk's inside is not looked at
+    if (comp->second != "bz2" && comp->second != "lz4") {
+      throw Error(where() + ": unknown chunk compression '" + comp->second + "'");
+    }
+    if (unpacked > kMaxChunk || unpacked > 4096ull * dlen_ + (1ull << 24)) {
+      throw Error(where() + ": chunk claims " + std::to_string(unpacked) + " unpacked bytes");
+    }
+    return false;
+  }
+
+  /// Index data: where the messages of a connection lie in the last chunk.
+  bool onIndexData(const Fields& f) {
+    const std::uint64_t count = number(f, "count");
+    if (number(f, "ver") != 1 || count * 12 != dlen_) throw Error(where() + ": malformed index data");
+    if (!chunk_known_) return false;
+    readData();
+    for (std::uint64_t k = 0; k < count; ++k) {
+      std::uint32_t offset = 0;
+      std::memcpy(&offset, buf_.data() + 12 * k + 8, 4);
+      if (in_chunk_.count(offset) == 0) {
+        throw Error(where() + ": index points into the middle of a record");
+      }
+    }
+    return true;
+  }
+
+  void finish() const {
+    if (index_pos_ == 0) {
+      throw Error(path_ + ": the bag has no index (cut short while recording?); run 'rosbag reindex " +
+                  path_ + "' first");
+    }
+    if (records_.count(index_pos_) == 0) throw Error(path_ + ": the index position is not a record");
+    for (std::uint64_t c : chunk_infos_) {
+      if (chunks_.count(c) == 0) throw Error(path_ + ": a chunk info points to no chunk");
+    }
+  }
+
+  std::string path_;
+  std::ifstream in_;
+  std::uint64_t size_ = 0;
+  std::uint64_t at_ = 0;       ///< the record being read
+  std::uint64_t data_at_ = 0;  ///< where its data starts
+  std::uint32_t dlen_ = 0;     ///< and how long it is
+  std::uint64_t index_pos_ = 0;
+  std::set<std::uint64_t> records_, chunks_, chunk_infos_;
+  std::set<std::uint64_t> in_chunk_;  ///< record starts in the last uncompressed chunk
+  bool chunk_known_ = false;          ///< false after a compressed chunk
+  std::vector<std::uint8_t> buf_;
+};
+
 }  // namespace
 
-void checkBagStructure(const std::string& path) {
-  std::ifstream in(path, std::ios::binary | std::ios::ate);
-  if (!in) throw Error(path + ": cannot open: " + std::strerror(errno));
-  const auto size = static_cast<std::uint64_t>(in.tellg());
-  in.seekg(0);
-  char magic[sizeof(kMagic) - 1] = {};
-  in.read(magic, sizeof(magic));
-  if (!in || std::memcmp(magic, kMagic, sizeof(magic)) != 0) {
-    throw Error(path + ": not a rosbag (version 2.0) file");
-  }
-  std::uint64_t at = sizeof(magic);
-  std::uint64_t index_pos = 0;
-  std::set<std::uint64_t> records, chunks, chunk_infos;
-  std::set<std::uint64_t> in_chunk;  // record starts in the last uncompressed chunk
-  bool chunk_known = false;           // false after a compressed chunk: its inside is unseen
-  std::vector<std::uint8_t> buf;
-  while (at < size) {
-    records.insert(at);
-    const std::string where = path + ": record at byte " + std::to_string(at);
-    std::uint32_t hlen = 0, dlen = 0;
-    if (size - at < 4) throw Error(where + " is cut short");
-    in.read(reinterpret_cast<char*>(&hlen), 4);
-    if (hlen > size - at - 4 || hlen > kMaxHeader) {
-      throw Error(where + " claims a header of " + std::to_string(hlen) + " bytes (file cut short or corrupt; 'rosbag reindex' may repair it)");
-    }
-    buf.resize(hlen);
-    in.read(reinterpret_cast<char*>(buf.data()), static_cast<std::streamsize>(hlen));
-    Fields f;
-    if (!in || !parseFields(buf.data(), hlen, f)) throw Error(where + " has a malformed header");
-    const std::uint64_t data_at = at + 4 + hlen + 4;
-    if (size - at - 4 - hlen < 4) throw Error(where + " is cut short");
-    in.read(reinterpret_cast<char*>(&dlen), 4);
-    if (dlen > size - data_at) {
-      throw Error(where + " claims " + std::to_string(dlen) + " bytes of data, the file holds " +
-                  std::to_string(size - data_at) + " more (cut short? 'rosbag reindex' may repair it)");
-    }
-    const auto op = f.find("op");
-    if (op == f.end() || op->second.size() != 1) throw Error(where + " has no op field");
-    switch (op->second[0]) {
-      case 0x03: {  // bag header
-        index_pos = number(f, "index_pos");
-        if (index_pos > size) throw Error(where + ": the index lies beyond the end of the file (cut short? 'rosbag reindex' may repair it)");
-        break;
-      }
-      case 0x05: {  // chunk
-        const auto comp = f.find("compression");
-        const std::uint64_t unpacked = number(f, "size");
-        if (comp == f.end()) throw Error(where + ": chunk without compression field");
-        chunks.insert(at);
-        if (comp->second == "none") {
-          if (unpacked != dlen) throw Error(where + ": chunk size disagrees with its data");
-          buf.resize(dlen);
-          in.read(reinterpret_cast<char*>(buf.data()), static_cast<std::streamsize>(dlen));
-          in_chunk = checkChunk(path, buf.data(), dlen, data_at);
-          chunk_known = true;
-          at = data_at + dlen;
-          continue;
-        }
-        chunk_known = false;
-        if (comp->second != "bz2" && comp->second != "lz4") {
-          throw Error(where + ": unknown chunk compression '" + comp->second + "'");
-        }
-        if (unpacked > kMaxChunk || unpacked > 4096ull * dlen + (1ull << 24)) {
-          throw Error(where + ": chunk claims " + std::to_string(unpacked) + " unpacked bytes");
-        }
-        break;
-      }
-      case 0x06: {  // chunk info
-        chunk_infos.insert(number(f, "chunk_pos"));
-        break;
-      }
-      case 0x04: {  // index data: where the messages of a connection lie in the last chunk
-        const std::uint64_t count = number(f, "count");
-        if (number(f, "ver") != 1 || count * 12 != dlen) throw Error(where + ": malformed index data");
-        if (chunk_known) {
-          buf.resize(dlen);
-          in.read(reinterpret_cast<char*>(buf.data()), static_cast<std::streamsize>(dlen));
-          for (std::uint64_t k = 0; k < count; ++k) {
-            std::uint32_t offset = 0;
-            std::memcpy(&offset, buf.data() + 12 * k + 8, 4);
-            if (in_chunk.count(offset) == 0) throw Error(where + ": index points into the middle of a record");
-          }
-        }
-        break;
-      }
-      case 0x07: {  // connection
-        buf.resize(dlen);
-        in.read(reinterpret_cast<char*>(buf.data()), static_cast<std::streamsize>(dlen));
-        Fields conn;
-        if (!in || !parseFields(buf.data(), dlen, conn)) throw Error(where + ": malformed connection");
-        at = data_at + dlen;
-        continue;
-      }
-      case 0x02:
-        break;
-      default:
-        throw Error(where + " has an unknown op " + std::to_string(static_cast<int>(op->second[0])));
-    }
-    at = data_at + dlen;
-    in.seekg(static_cast<std::streamoff>(at));
-  }
-  if (index_pos == 0) {
-    throw Error(path + ": the bag has no index (cut short while recording?); run 'rosbag reindex " +
-                path + "' first");
-  }
-  if (records.count(index_pos) == 0) throw Error(path + ": the index position is not a record");
-  for (std::uint64_t c : chunk_infos) {
-    if (chunks.count(c) == 0) throw Error(path + ": a chunk info points to no chunk");
-  }
-}
+void checkBagStructure(const std::string& path) { BagScan(path).run(); }
 
 namespace {
 

@@ -33,6 +33,18 @@ namespace {
 using namespace flexcloud;
 namespace fs = std::filesystem;
 
+constexpr const char* kUsage = R"(usage: flexcloud_benchmark [options]
+Speed and memory of the warp, the PCD I/O and the whole offline tool on simulated maps; prints a
+markdown table (doc/BENCHMARKS.md).
+  --points N[,N...]           map sizes (default 1000000,10000000)
+  --control-points N[,N...]   (default 50,200,2000)
+  --threads N                 warp threads (default: all cores)
+  --work DIR                  scratch folder (default: the temporary folder)
+  --repeat N                  runs per figure, the best counts (default 3)
+  --skip-tool                 leave out the whole-tool runs
+  -h, --help
+)";
+
 struct Options {
   std::vector<std::size_t> points{1000000, 10000000};
   std::vector<int> control_points{50, 200, 2000};
@@ -54,7 +66,10 @@ Options parse(int argc, char** argv) {
   Options o;
   while (!a.done()) {
     const std::string f = a.flag();
-    if (f == "--points") {
+    if (f == "-h" || f == "--help") {
+      std::cout << kUsage;
+      std::exit(0);
+    } else if (f == "--points") {
       o.points.clear();
       for (double v : numbers(a.text(f))) o.points.push_back(static_cast<std::size_t>(v));
     } else if (f == "--control-points") {
@@ -124,108 +139,136 @@ std::string toolPath() {
   return (fs::path(self).parent_path() / "georeference").string();
 }
 
+/// The same points in random order: the worst case for the location (a SLAM map is stored scan
+/// by scan, so neighbours in the file are neighbours in space).
+pcl::PCLPointCloud2 shuffled(const pcl::PCLPointCloud2& original) {
+  const std::size_t n = static_cast<std::size_t>(original.width) * original.height;
+  pcl::PCLPointCloud2 out = original;
+  std::vector<std::size_t> order(n);
+  for (std::size_t i = 0; i < n; ++i) order[i] = i;
+  std::mt19937_64 rng(7);
+  std::shuffle(order.begin(), order.end(), rng);
+  const std::size_t step = original.point_step;
+  for (std::size_t i = 0; i < n; ++i) {
+    std::copy_n(original.data.begin() + order[i] * step, step, out.data.begin() + i * step);
+  }
+  return out;
+}
+
+/// Seconds to write and read the map as a binary PCD, ours and PCL's.
+struct IoTimes {
+  double write = 0.0, read = 0.0, pcl_write = 0.0, pcl_read = 0.0;
+};
+
+IoTimes benchmarkPcdIo(const Options& o, const pcl::PCLPointCloud2& original,
+                       const std::string& dir, const std::string& pcd) {
+  const std::size_t n = static_cast<std::size_t>(original.width) * original.height;
+  const double mb = static_cast<double>(original.data.size()) / 1e6;
+  IoTimes t;
+  t.write = best(o.repeat, [&] { writePcdBinary(pcd, original); });
+  t.read = best(o.repeat, [&] { readPcd(pcd); });
+  std::printf("| %zu | PCD write (binary) | | %.3f s | %.1f M/s | cloud %.0f MB |\n", n, t.write,
+              n / t.write / 1e6, mb);
+  std::printf("| %zu | PCD read (binary) | | %.3f s | %.1f M/s | |\n", n, t.read,
+              n / t.read / 1e6);
+  t.pcl_write = best(o.repeat, [&] { pcl::PCDWriter().writeBinary(dir + "/pcl.pcd", original); });
+  t.pcl_read = best(o.repeat, [&] {
+    pcl::PCLPointCloud2 c;
+    pcl::PCDReader().read(dir + "/pcl.pcd", c);
+  });
+  std::printf("| %zu | PCL's PCD write / read (binary), for reference | | %.3f / %.3f s | %.1f / "
+              "%.1f M/s | |\n",
+              n, t.pcl_write, t.pcl_read, n / t.pcl_write / 1e6, n / t.pcl_read / 1e6);
+  return t;
+}
+
+/// The drive as the offline tool's text input; returns the GNSS and pose file paths.
+std::pair<std::string, std::string> writeToolInputs(const sim::SimDrive& d, const std::string& dir) {
+  std::ostringstream g;
+  g.precision(12);
+  for (const auto& f : d.fixes) {
+    g << f.fix.stamp << ' ' << f.fix.lat << ' ' << f.fix.lon << ' ' << f.fix.alt << ' '
+      << f.fix.std_enu.x() << ' ' << f.fix.std_enu.y() << ' ' << f.fix.std_enu.z() << '\n';
+  }
+  writeTextFile(dir + "/gnss.txt", g.str());
+  writeTextFile(dir + "/poses.txt", formatTum(d.slam));
+  return {dir + "/gnss.txt", dir + "/poses.txt"};
+}
+
+/// Warp throughput in memory, in scan order and in random order.
+void benchmarkWarp(const Options& o, int cps, const GeoreferenceResult& r,
+                   const pcl::PCLPointCloud2& original, const pcl::PCLPointCloud2& random) {
+  const std::size_t n = static_cast<std::size_t>(original.width) * original.height;
+  pcl::PCLPointCloud2 cloud = original;
+  // The first warp builds the location grid; the best of the others is the warp alone.
+  const double first_s = seconds([&] { warpCloud(cloud, *r.sheet, o.threads); });
+  double warp_s = 1e300;
+  for (int i = 0; i < o.repeat; ++i) {
+    std::copy(original.data.begin(), original.data.end(), cloud.data.begin());
+    warp_s = std::min(warp_s, seconds([&] { warpCloud(cloud, *r.sheet, o.threads); }));
+  }
+  std::printf("| %zu | warp (locate + transform) | %d (%zu tetrahedra) | %.3f s | **%.1f M/s** | "
+              "first warp, with the location grid built: %.3f s |\n",
+              n, cps, r.sheet->numTetrahedra(), warp_s, n / warp_s / 1e6, first_s);
+  double shuffled_s = 1e300;
+  for (int i = 0; i < o.repeat; ++i) {
+    pcl::PCLPointCloud2 c = random;
+    shuffled_s = std::min(shuffled_s, seconds([&] { warpCloud(c, *r.sheet, o.threads); }));
+  }
+  std::printf("| %zu | warp, points in random order (worst case) | %d | %.3f s | %.1f M/s | |\n",
+              n, cps, shuffled_s, n / shuffled_s / 1e6);
+}
+
+/// The whole offline tool on the map file: best wall time and its own peak memory.
+void benchmarkTool(const Options& o, int cps, const std::pair<std::string, std::string>& inputs,
+                   const std::string& pcd, const std::string& dir, std::size_t n, double mb,
+                   const IoTimes& io) {
+  ProcessRun t;
+  t.seconds = 1e300;
+  for (int k = 0; k < o.repeat; ++k) {
+    const ProcessRun run =
+        runProcess({toolPath(), "--gnss", inputs.first, "--poses", inputs.second, "--map", pcd,
+                    "--out", dir + "/out", "--control-points", std::to_string(cps), "--threads",
+                    std::to_string(o.threads), "-q"});
+    if (run.code != 0) {
+      throw Error("the georeference tool failed with exit code " + std::to_string(run.code));
+    }
+    t.seconds = std::min(t.seconds, run.seconds);
+  }
+  // The tool's own peak (VmHWM): a forked child's ru_maxrss would include this process.
+  std::ifstream report(dir + "/out/report.json");
+  const std::string text((std::istreambuf_iterator<char>(report)), {});
+  const auto at = text.find("\"peak_memory_mb\":");
+  t.max_rss_mb = at == std::string::npos ? 0.0 : std::stod(text.substr(at + 17));
+  std::printf("| %zu | whole offline tool | %d | %.3f s | %.1f M/s | peak %.0f MB = **%.2f x** "
+              "cloud; **%.2f x** (read + write), %.2f x PCL's |\n",
+              n, cps, t.seconds, n / t.seconds / 1e6, t.max_rss_mb, t.max_rss_mb / mb,
+              t.seconds / (io.read + io.write), t.seconds / (io.pcl_read + io.pcl_write));
+}
+
 void onePointCount(const Options& o, std::size_t n) {
   sim::SimParams sp;
   sp.map_points = n;
   std::fprintf(stderr, "simulating a 5 km drive with %zu map points\n", n);
   const sim::SimDrive d = sim::simulateDrive(sp);
-  DriveInput in;
-  in.fixes = d.fixes;
-  in.poses = d.slam;
   const pcl::PCLPointCloud2 original = sim::slamCloud(d.map);
-  const double mb = static_cast<double>(original.data.size()) / 1e6;
-  // The worst case for the location: the same points in random order (a SLAM map is stored scan
-  // by scan, so neighbours in the file are neighbours in space).
-  pcl::PCLPointCloud2 shuffled = original;
-  {
-    std::vector<std::size_t> order(n);
-    for (std::size_t i = 0; i < n; ++i) order[i] = i;
-    std::mt19937_64 rng(7);
-    std::shuffle(order.begin(), order.end(), rng);
-    const std::size_t step = original.point_step;
-    for (std::size_t i = 0; i < n; ++i) {
-      std::copy_n(original.data.begin() + order[i] * step, step, shuffled.data.begin() + i * step);
-    }
-  }
-
+  const pcl::PCLPointCloud2 random = shuffled(original);
   const std::string dir = o.work + "/n" + std::to_string(n);
   makeDirectories(dir);
   const std::string pcd = dir + "/map.pcd";
-  const double write_s = best(o.repeat, [&] { writePcdBinary(pcd, original); });
-  const double read_s = best(o.repeat, [&] { readPcd(pcd); });
-  std::printf("| %zu | PCD write (binary) | | %.3f s | %.1f M/s | cloud %.0f MB |\n", n, write_s,
-              n / write_s / 1e6, mb);
-  std::printf("| %zu | PCD read (binary) | | %.3f s | %.1f M/s | |\n", n, read_s,
-              n / read_s / 1e6);
-  // For reference: PCL's own binary reader and writer on the same file.
-  const double pcl_write_s = best(o.repeat, [&] {
-    pcl::PCDWriter().writeBinary(dir + "/pcl.pcd", original);
-  });
-  const double pcl_read_s = best(o.repeat, [&] {
-    pcl::PCLPointCloud2 c;
-    pcl::PCDReader().read(dir + "/pcl.pcd", c);
-  });
-  std::printf("| %zu | PCL's PCD write / read (binary), for reference | | %.3f / %.3f s | %.1f / %.1f M/s | |\n",
-              n, pcl_write_s, pcl_read_s, n / pcl_write_s / 1e6, n / pcl_read_s / 1e6);
-
-  std::string gnss_txt, poses_txt;
-  if (o.tool) {
-    std::ostringstream g;
-    g.precision(12);
-    for (const auto& f : d.fixes) {
-      g << f.fix.stamp << ' ' << f.fix.lat << ' ' << f.fix.lon << ' ' << f.fix.alt << ' '
-        << f.fix.std_enu.x() << ' ' << f.fix.std_enu.y() << ' ' << f.fix.std_enu.z() << '\n';
-    }
-    gnss_txt = dir + "/gnss.txt";
-    poses_txt = dir + "/poses.txt";
-    writeTextFile(gnss_txt, g.str());
-    writeTextFile(poses_txt, formatTum(d.slam));
-  }
+  const IoTimes io = benchmarkPcdIo(o, original, dir, pcd);
+  const auto inputs = writeToolInputs(d, dir);
+  DriveInput in;
+  in.fixes = d.fixes;
+  in.poses = d.slam;
   for (int cps : o.control_points) {
     Params p;
     p.control_points = cps;
     p.threads = o.threads;
     const GeoreferenceResult r = georeference(in, p);
-    pcl::PCLPointCloud2 cloud = original;
-    // The first warp builds the location grid; the best of the others is the warp alone.
-    const double first_s = seconds([&] { warpCloud(cloud, *r.sheet, o.threads); });
-    double warp_s = 1e300;
-    for (int i = 0; i < o.repeat; ++i) {
-      std::copy(original.data.begin(), original.data.end(), cloud.data.begin());
-      warp_s = std::min(warp_s, seconds([&] { warpCloud(cloud, *r.sheet, o.threads); }));
-    }
-    std::printf("| %zu | warp (locate + transform) | %d (%zu tetrahedra) | %.3f s | **%.1f M/s** | "
-                "first warp, with the location grid built: %.3f s |\n",
-                n, cps, r.sheet->numTetrahedra(), warp_s, n / warp_s / 1e6, first_s);
-    double shuffled_s = 1e300;
-    for (int i = 0; i < o.repeat; ++i) {
-      pcl::PCLPointCloud2 c = shuffled;
-      shuffled_s = std::min(shuffled_s, seconds([&] { warpCloud(c, *r.sheet, o.threads); }));
-    }
-    std::printf("| %zu | warp, points in random order (worst case) | %d | %.3f s | %.1f M/s | |\n",
-                n, cps, shuffled_s, n / shuffled_s / 1e6);
+    benchmarkWarp(o, cps, r, original, random);
     if (o.tool) {
-      ProcessRun t;
-      t.seconds = 1e300;
-      for (int k = 0; k < o.repeat; ++k) {
-        const ProcessRun run = runProcess({toolPath(), "--gnss", gnss_txt, "--poses", poses_txt,
-                                           "--map", pcd, "--out", dir + "/out", "--control-points",
-                                           std::to_string(cps), "--threads",
-                                           std::to_string(o.threads), "-q"});
-        if (run.code != 0) {
-          throw Error("the georeference tool failed with exit code " + std::to_string(run.code));
-        }
-        t.seconds = std::min(t.seconds, run.seconds);
-      }
-      // The tool's own peak (VmHWM): a forked child's ru_maxrss would include this process.
-      std::ifstream report(dir + "/out/report.json");
-      const std::string text((std::istreambuf_iterator<char>(report)), {});
-      const auto at = text.find("\"peak_memory_mb\":");
-      t.max_rss_mb = at == std::string::npos ? 0.0 : std::stod(text.substr(at + 17));
-      std::printf("| %zu | whole offline tool | %d | %.3f s | %.1f M/s | peak %.0f MB = **%.2f x** cloud; "
-                  "**%.2f x** (read + write), %.2f x PCL's |\n",
-                  n, cps, t.seconds, n / t.seconds / 1e6, t.max_rss_mb, t.max_rss_mb / mb,
-                  t.seconds / (read_s + write_s), t.seconds / (pcl_read_s + pcl_write_s));
+      benchmarkTool(o, cps, inputs, pcd, dir, n, static_cast<double>(original.data.size()) / 1e6, io);
     }
     std::fflush(stdout);
   }
