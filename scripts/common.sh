@@ -9,6 +9,11 @@ export FLEXCLOUD_ROOT FLEXCLOUD_WS
 
 log() { printf '[flexcloud] %s\n' "$*" >&2; }
 
+# Compiles go through ccache. Paths under the repository are hashed relative to the build folder,
+# so a clone elsewhere, or a catkin workspace of the same shape, reuses what was compiled before.
+export CCACHE_BASEDIR="${CCACHE_BASEDIR:-${FLEXCLOUD_ROOT}}" CCACHE_NOHASHDIR=1
+CCACHE_ARGS=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+
 # catkin caches how its setup script changes the environment at configure time; configured in a
 # shell that already sourced a setup file, the cache comes out empty and later runs from a clean
 # shell cannot find the package. The scripts therefore configure without any ROS environment.
@@ -41,7 +46,7 @@ build_workspace() {
   jobs="$(nproc)"
   log "building in ${FLEXCLOUD_WS} (${FLEXCLOUD_BUILD_TYPE}, ${jobs} jobs)"
   (cd "${FLEXCLOUD_WS}" && catkin_make -j"${jobs}" \
-      -DCMAKE_BUILD_TYPE="${FLEXCLOUD_BUILD_TYPE}" \
+      -DCMAKE_BUILD_TYPE="${FLEXCLOUD_BUILD_TYPE}" "${CCACHE_ARGS[@]}" \
       -DPYTHON_EXECUTABLE=/usr/bin/python3 "$@" >&2)
 }
 
@@ -90,6 +95,7 @@ build_sanitize_workspace() {
   log "building the sanitizer and fuzz workspace in ${FLEXCLOUD_SAN_WS}"
   (cd "${FLEXCLOUD_SAN_WS}" && CC=clang-14 CXX=clang++-14 catkin_make -j"$(nproc)" \
       -DCMAKE_BUILD_TYPE=RelWithDebInfo -DFLEXCLOUD_FUZZ=ON -DCATKIN_ENABLE_TESTING=ON \
+      "${CCACHE_ARGS[@]}" \
       -DPYTHON_EXECUTABLE=/usr/bin/python3 \
       flexcloud_unit_tests flexcloud_e2e_tests georeference simulate_drive \
       fuzz_text fuzz_pipeline fuzz_pcd fuzz_bag >&2)

@@ -12,7 +12,8 @@ out="$(cd "${out}" && pwd)"
 bin="${FLEXCLOUD_WS}/devel/lib/flexcloud"
 
 log "simulating a loop-closed 5 km drive with 1,000,000 map points"
-"${bin}/simulate_drive" --out "${out}/drive" --map-points 1000000 --seed 1
+"${bin}/simulate_drive" --out "${out}/drive" --map-points 1000000 --seed 1 \
+  --fix-topic /gnss/fix --odom-topic /slam/odom
 log "georeferencing it"
 # The ground truth is in the ENU frame of the simulator's datum, so the run uses that datum.
 "${bin}/georeference" --bag "${out}/drive/drive.bag" --map "${out}/drive/map.pcd" \

@@ -4,6 +4,9 @@
 #   scripts/fuzz.sh [SECONDS] [OUT]
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
+case "${1:-}" in
+  -h|--help) sed -n '2,4p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+esac
 seconds="${1:-600}"
 out="${2:-${FLEXCLOUD_ROOT}/out/fuzz}"
 install_deps

@@ -17,6 +17,7 @@ case "${1:-}" in
   --quick) sanitize=0 fuzz=0 ;;
   --sanitize) suite=0 fuzz=0 ;;
   --fuzz) suite=0 sanitize=0; fuzz_seconds="${2:-${fuzz_seconds}}" ;;
+  -h|--help) sed -n '2,9p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
   *) echo "usage: scripts/test.sh [--quick | --sanitize | --fuzz [SECONDS]]" >&2; exit 2 ;;
 esac
 
@@ -35,10 +36,17 @@ if [ "${suite}" = 1 ]; then
   # catkin_make run_tests exits 0 even when tests fail: the result files decide. It runs inside
   # the workspace's environment, so rostest finds the package whatever the configure-time cache.
   (cd "${FLEXCLOUD_WS}" && in_workspace catkin_make run_tests -j"$(nproc)" \
-      -DCMAKE_BUILD_TYPE="${FLEXCLOUD_BUILD_TYPE}" -DPYTHON_EXECUTABLE=/usr/bin/python3) \
+      -DCMAKE_BUILD_TYPE="${FLEXCLOUD_BUILD_TYPE}" "${CCACHE_ARGS[@]}" \
+      -DPYTHON_EXECUTABLE=/usr/bin/python3) \
       > "${run_log}" 2>&1
   grep -E "^(loop|open|a2rl|outage|3 )" "${run_log}" >&2 || true
   cp -r "${FLEXCLOUD_WS}/build/test_results" "${results}/suite" 2>/dev/null || true
+  # The README's commands as typed (with a catkin workspace and an install space of their own),
+  # the packages the commands come from, the source format.
+  log "running the README, packaging and format tests (log: ${results}/scripts.log)"
+  (cd "${FLEXCLOUD_ROOT}/test/scripts" && \
+    /usr/bin/python3 -m xmlrunner discover -p 'test_*.py' -o "${results}/scripts") \
+    > "${results}/scripts.log" 2>&1
 fi
 
 if [ "${sanitize}" = 1 ] || [ "${fuzz}" = 1 ]; then

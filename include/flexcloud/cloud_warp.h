@@ -38,8 +38,7 @@ struct WarpStats {
 /// (0: all cores). Throws Error("NAME: warp: cancelled") once `cancel` is cancelled (the
 /// points are then partly warped).
 WarpStats warpCloud(pcl::PCLPointCloud2& cloud, const RubberSheet& sheet, int threads,
-                    const std::string& name = "map",
-                    const CancelToken& cancel = neverCancelled());
+                    const std::string& name = "map", const CancelToken& cancel = neverCancelled());
 /// The same on a raw point buffer of the given layout.
 WarpStats warpPoints(std::uint8_t* data, const XyzLayout& layout, const RubberSheet& sheet,
                      int threads, const std::string& name = "map",

@@ -1,8 +1,8 @@
 #pragma once
 // WGS84 <-> local East-North-Up about a datum, through GeographicLib. Doubles throughout.
 
-#include <GeographicLib/LocalCartesian.hpp>
 #include <Eigen/Core>
+#include <GeographicLib/LocalCartesian.hpp>
 
 namespace flexcloud {
 

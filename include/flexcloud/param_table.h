@@ -123,9 +123,12 @@ enum class Live { kNo, kYes };
 template <class S>
 ParamRow<S> realRow(const char* name, double S::*m, double def, double min, double max,
                     const char* unit, const char* doc, Live live = Live::kNo) {
-  ParamSpec spec{name, ParamType::kReal, {def, "", {}}, min, max, false, {}, unit, doc,
-                 live == Live::kYes};
-  return {spec, [m](const S& s) { return ParamValue{s.*m, "", {}}; },
+  ParamSpec spec{name, ParamType::kReal,  {def, "", {}}, min, max, false, {}, unit,
+                 doc,  live == Live::kYes};
+  return {spec,
+          [m](const S& s) {
+            return ParamValue{s.*m, "", {}};
+          },
           [m](S& s, const ParamValue& v) { s.*m = v.number; }};
 }
 
@@ -142,23 +145,32 @@ ParamRow<S> intRow(const char* name, int S::*m, int def, int min, int max, const
                  unit,
                  doc,
                  live == Live::kYes};
-  return {spec, [m](const S& s) { return ParamValue{static_cast<double>(s.*m), "", {}}; },
+  return {spec,
+          [m](const S& s) {
+            return ParamValue{static_cast<double>(s.*m), "", {}};
+          },
           [m](S& s, const ParamValue& v) { s.*m = static_cast<int>(v.number); }};
 }
 
 template <class S>
 ParamRow<S> boolRow(const char* name, bool S::*m, bool def, const char* doc,
                     Live live = Live::kNo) {
-  ParamSpec spec{name, ParamType::kBool, {def ? 1.0 : 0.0, "", {}}, 0, 1, false, {}, "", doc,
-                 live == Live::kYes};
-  return {spec, [m](const S& s) { return ParamValue{s.*m ? 1.0 : 0.0, "", {}}; },
+  ParamSpec spec{name, ParamType::kBool,  {def ? 1.0 : 0.0, "", {}}, 0, 1, false, {}, "",
+                 doc,  live == Live::kYes};
+  return {spec,
+          [m](const S& s) {
+            return ParamValue{s.*m ? 1.0 : 0.0, "", {}};
+          },
           [m](S& s, const ParamValue& v) { s.*m = v.number != 0.0; }};
 }
 
 template <class S>
 ParamRow<S> textRow(const char* name, std::string S::*m, const char* def, const char* doc) {
   ParamSpec spec{name, ParamType::kText, {0.0, def, {}}, 0, 0, false, {}, "", doc, false};
-  return {spec, [m](const S& s) { return ParamValue{0.0, s.*m, {}}; },
+  return {spec,
+          [m](const S& s) {
+            return ParamValue{0.0, s.*m, {}};
+          },
           [m](S& s, const ParamValue& v) { s.*m = v.text; }};
 }
 
@@ -166,8 +178,11 @@ template <class S>
 ParamRow<S> choiceRow(const char* name, std::string S::*m, const char* def,
                       std::vector<std::string> choices, const char* doc, Live live = Live::kNo) {
   ParamSpec spec{name, ParamType::kChoice, {0.0, def, {}}, 0, 0, false, std::move(choices), "",
-                 doc, live == Live::kYes};
-  return {spec, [m](const S& s) { return ParamValue{0.0, s.*m, {}}; },
+                 doc,  live == Live::kYes};
+  return {spec,
+          [m](const S& s) {
+            return ParamValue{0.0, s.*m, {}};
+          },
           [m](S& s, const ParamValue& v) { s.*m = v.text; }};
 }
 
@@ -175,7 +190,10 @@ template <class S>
 ParamRow<S> rangesRow(const char* name, std::vector<TimeRange> S::*m, const char* unit,
                       const char* doc) {
   ParamSpec spec{name, ParamType::kRanges, {}, 0, 0, false, {}, unit, doc, false};
-  return {spec, [m](const S& s) { return ParamValue{0.0, "", s.*m}; },
+  return {spec,
+          [m](const S& s) {
+            return ParamValue{0.0, "", s.*m};
+          },
           [m](S& s, const ParamValue& v) { s.*m = v.ranges; }};
 }
 

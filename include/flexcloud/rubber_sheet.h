@@ -6,8 +6,8 @@
 // given affine transform applies.
 
 #include <array>
-#include <memory>
 #include <atomic>
+#include <memory>
 #include <mutex>
 #include <vector>
 

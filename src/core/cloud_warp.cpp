@@ -37,7 +37,8 @@ XyzLayout XyzLayout::of(const std::vector<pcl::PCLPointField>& fields, std::size
       l.offset[a] = f.offset;
       if (f.offset + (l.is_double[a] ? 8u : 4u) > l.point_step) {
         throw Error(name + ": field " + f.name + " lies outside the point (offset " +
-                    std::to_string(f.offset) + ", point step " + std::to_string(l.point_step) + ")");
+                    std::to_string(f.offset) + ", point step " + std::to_string(l.point_step) +
+                    ")");
       }
     }
     if (!found) throw Error(name + ": the cloud has no '" + axes[a] + "' field");
@@ -132,7 +133,7 @@ void warpRange(std::uint8_t* data, std::size_t begin, std::size_t end, std::size
 
 /// Builds the sheet's location grid from a sample of the points, if not built yet.
 static void prepareFor(const std::uint8_t* data, const XyzLayout& layout, const RubberSheet& sheet,
-                int threads) {
+                       int threads) {
   if (sheet.prepared()) return;
   const std::size_t n = layout.points;
   std::vector<Eigen::Vector3d> sample;

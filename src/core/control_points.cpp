@@ -127,8 +127,9 @@ void addControlPoints(ControlPointSelection& selection, const std::vector<std::s
     cp.std_dev = gnss[i]->stdDev3d();
     selection.points.push_back(cp);
   }
-  std::sort(selection.points.begin(), selection.points.end(),
-            [](const ControlPoint& a, const ControlPoint& b) { return a.pose_index < b.pose_index; });
+  std::sort(
+      selection.points.begin(), selection.points.end(),
+      [](const ControlPoint& a, const ControlPoint& b) { return a.pose_index < b.pose_index; });
 }
 
 }  // namespace flexcloud

@@ -177,8 +177,7 @@ void refineControlPoints(ControlPointSelection& cps, const Trajectory& poses,
     const std::vector<double> deviation = sheetDeviation(*sheet, poses, gnss, usable);
     const std::size_t have = cps.points.size();
     const std::size_t round = std::min(total - have, std::max<std::size_t>(1, have / 4));
-    const auto picks =
-        pickRefinements(cps, deviation, arc, separation, round, kMinRefineDeviation);
+    const auto picks = pickRefinements(cps, deviation, arc, separation, round, kMinRefineDeviation);
     if (picks.empty()) break;
     addControlPoints(cps, picks, poses, gnss);
   }
@@ -231,9 +230,9 @@ Pose warpPose(const RubberSheet& sheet, const Pose& p, int& hint) {
   const Affine34& a = sheet.affineAt(loc);
   Pose out = p;
   out.position = RubberSheet::apply(a, p.position);
-  out.orientation = Eigen::Quaterniond(nearestRotation(a.leftCols<3>()) *
-                                       p.orientation.toRotationMatrix())
-                        .normalized();
+  out.orientation =
+      Eigen::Quaterniond(nearestRotation(a.leftCols<3>()) * p.orientation.toRotationMatrix())
+          .normalized();
   return out;
 }
 

@@ -27,8 +27,8 @@ bool resolveStd(Eigen::Vector3d& std_dev, const Params& params, GnssDropCounts& 
 
 /// True when a vehicle could move between the two points in the time between them.
 bool reachable(const GnssPoint& a, const GnssPoint& b, double max_speed) {
-  const double allowed = max_speed * std::abs(b.stamp - a.stamp) +
-                         5.0 * (a.stdDev3d() + b.stdDev3d()) + 1.0;
+  const double allowed =
+      max_speed * std::abs(b.stamp - a.stamp) + 5.0 * (a.stdDev3d() + b.stdDev3d()) + 1.0;
   return (b.position - a.position).norm() <= allowed;
 }
 
@@ -53,8 +53,8 @@ void dropJumps(PreparedGnss& out, const Params& params) {
     if (i >= 2 && segment[i - 2] == segment[i - 1]) {
       const double dt = pts[i - 1].stamp - pts[i - 2].stamp;
       if (dt > 0.0) {
-        predicted = (pts[i - 1].position - pts[i - 2].position) *
-                    ((pts[i].stamp - pts[i - 1].stamp) / dt);
+        predicted =
+            (pts[i - 1].position - pts[i - 2].position) * ((pts[i].stamp - pts[i - 1].stamp) / dt);
       }
     }
     shift.push_back(shift[segment[i - 1]] + (pts[i].position - pts[i - 1].position - predicted));
@@ -140,10 +140,9 @@ PreparedGnss prepareGeodeticGnss(const std::vector<RawFix>& fixes, const Params&
   if (params.hasDatum()) {
     out.datum = Datum{params.datum_lat, params.datum_lon, params.datum_alt};
   } else {
-    const auto first = std::min_element(valid.begin(), valid.end(),
-                                        [](const GeoFix& a, const GeoFix& b) {
-                                          return a.stamp < b.stamp;
-                                        });
+    const auto first =
+        std::min_element(valid.begin(), valid.end(),
+                         [](const GeoFix& a, const GeoFix& b) { return a.stamp < b.stamp; });
     out.datum = Datum{first->lat, first->lon, first->alt};
   }
   const EnuFrame enu(*out.datum);

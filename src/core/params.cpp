@@ -37,7 +37,10 @@ ParamRow<P> interpolationRow() {
                  "",
                  "Keyframe interpolation: cubic through four GNSS points, or the nearest in time",
                  true};
-  return {spec, [](const P& p) { return ParamValue{0.0, toString(p.interpolation), {}}; },
+  return {spec,
+          [](const P& p) {
+            return ParamValue{0.0, toString(p.interpolation), {}};
+          },
           [](P& p, const ParamValue& v) { p.interpolation = parseInterpolationMode(v.text); }};
 }
 

@@ -29,8 +29,8 @@ struct RubberSheet::Cgal {
 
 namespace {
 
-constexpr double kMergeDistance = 1e-3;    // m: sources closer than this are one point
-constexpr double kFlatQuality = 1e-9;  // |det(edges)| / longest^3 below this: a flat sliver
+constexpr double kMergeDistance = 1e-3;  // m: sources closer than this are one point
+constexpr double kFlatQuality = 1e-9;    // |det(edges)| / longest^3 below this: a flat sliver
 
 /// Keeps the first of any sources within kMergeDistance of each other.
 std::vector<std::size_t> mergeNearDuplicates(const std::vector<Eigen::Vector3d>& pts) {

@@ -1,16 +1,16 @@
 #include "tet_locator.h"
 
-#include "parallel.h"
-
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 
 #include <algorithm>
 #include <cmath>
 
+#include "parallel.h"
+
 namespace flexcloud {
 namespace {
 
-constexpr std::size_t kCellsPerTet = 8;      // level-1 cells per tetrahedron
+constexpr std::size_t kCellsPerTet = 8;  // level-1 cells per tetrahedron
 constexpr std::size_t kMinCells = 1 << 12;
 constexpr std::size_t kMaxCells = 1 << 21;
 constexpr std::size_t kSubBudget = 1 << 21;  // sub-cells in all blocks (4 + up to 16 bytes each)
@@ -36,7 +36,7 @@ int TetLocator::exit(int tet, const Eigen::Vector3d& p) const {
       worst = i + 1;
     }
   }
-  if (lowest >= t.tolerance) return -1;    // inside beyond doubt
+  if (lowest >= t.tolerance) return -1;     // inside beyond doubt
   if (lowest < -t.tolerance) return worst;  // outside beyond doubt
   return exactExit(t, p);
 }
@@ -63,7 +63,8 @@ TetLocator::Location TetLocator::walk(const Eigen::Vector3d& p, int start) const
   for (std::size_t step = 0; step < limit; ++step) {
     const int face = exit(current, p);
     if (face < 0) return {current, false};
-    const int next = tets_[static_cast<std::size_t>(current)].neighbour[static_cast<std::size_t>(face)];
+    const int next =
+        tets_[static_cast<std::size_t>(current)].neighbour[static_cast<std::size_t>(face)];
     if (next < 0) return {current, true};
     current = next;
   }
@@ -105,8 +106,6 @@ TetLocator::Location TetLocator::locate(const Eigen::Vector3d& p) const {
   return walk(p, c[0]);
 }
 
-
-
 std::size_t TetLocator::cellOf(const Eigen::Vector3d& p) const {
   const Eigen::Vector3d f = (p - lo_).cwiseProduct(scale_);
   const int ix = std::clamp(static_cast<int>(f.x()), 0, n_.x() - 1);
@@ -147,7 +146,8 @@ TetLocator::SubBlock TetLocator::subdivide(int x, int y, int z, int s, int hint,
           const Location& v =
               vertex[(static_cast<std::size_t>(k + (q >> 2)) * m + j + ((q >> 1) & 1)) * m + i +
                      (q & 1)];
-          inside_one = inside_one && !v.outside && v.tet == vertex[(static_cast<std::size_t>(k) * m + j) * m + i].tet;
+          inside_one = inside_one && !v.outside &&
+                       v.tet == vertex[(static_cast<std::size_t>(k) * m + j) * m + i].tet;
           if (v.outside || count == c.size() ||
               std::find(c.begin(), c.begin() + static_cast<std::ptrdiff_t>(count), v.tet) !=
                   c.begin() + static_cast<std::ptrdiff_t>(count)) {
@@ -258,8 +258,8 @@ std::vector<TetLocator::SubBlock> TetLocator::subdivideMixed(const std::vector<M
   std::size_t busy = 0;
   for (const auto& c : mixed) busy += c.occupied ? 1 : 0;
   const int s_max = static_cast<int>(std::clamp(
-      std::floor(std::cbrt(static_cast<double>(kSubBudget) / std::max<std::size_t>(1, busy))),
-      1.0, static_cast<double>(kMaxSub)));
+      std::floor(std::cbrt(static_cast<double>(kSubBudget) / std::max<std::size_t>(1, busy))), 1.0,
+      static_cast<double>(kMaxSub)));
   std::vector<SubBlock> subs(mixed.size());
   parallelRanges(mixed.size(), static_cast<std::size_t>(threadCount(threads)), threads,
                  [&](std::size_t, std::size_t b0, std::size_t b1) {
@@ -292,7 +292,8 @@ void TetLocator::packBlocks(const std::vector<SubBlock>& subs) {
   sub_.reserve(total);
   candidates_.reserve(lists);
   for (std::size_t b = 0; b < subs.size(); ++b) {
-    blocks_[b].s = static_cast<int>(std::lround(std::cbrt(static_cast<double>(subs[b].sub.size()))));
+    blocks_[b].s =
+        static_cast<int>(std::lround(std::cbrt(static_cast<double>(subs[b].sub.size()))));
     blocks_[b].offset = sub_.size();
     const int base = static_cast<int>(candidates_.size());
     for (int e : subs[b].sub) sub_.push_back(e >= 0 ? e : e - base);

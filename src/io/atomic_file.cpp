@@ -13,9 +13,9 @@ namespace flexcloud {
 
 AtomicFile::AtomicFile(std::string path) : path_(std::move(path)) {
   const std::filesystem::path p(path_);
-  temp_ = (p.parent_path() / ("." + p.filename().string() + ".partial-" +
-                              std::to_string(::getpid())))
-              .string();
+  temp_ =
+      (p.parent_path() / ("." + p.filename().string() + ".partial-" + std::to_string(::getpid())))
+          .string();
 }
 
 AtomicFile::~AtomicFile() {

@@ -68,8 +68,12 @@ class MapJob {
  public:
   MapJob(const std::string& in, const RubberSheet& sheet, const MapStreamOptions& options,
          MapInfo& info)
-      : in_(in), reader_(in), fields_(pclFields(reader_.header())), sheet_(sheet),
-        options_(options), info_(info) {
+      : in_(in),
+        reader_(in),
+        fields_(pclFields(reader_.header())),
+        sheet_(sheet),
+        options_(options),
+        info_(info) {
     const PcdHeader& h = reader_.header();
     layout_ = XyzLayout::of(fields_, h.point_step, h.points, h.points * h.point_step, in);
     if (!options.truth.empty()) truth_.emplace(options.truth, h.points);
@@ -89,7 +93,8 @@ class MapJob {
     for (std::size_t k = 0; k < kSampleBlocks && block > 0; ++k) {
       const std::size_t first = (h.points - block) * k / (kSampleBlocks - 1);
       reader_.readAt(first, block, buf.data());
-      for (std::size_t i = 0; i < block; ++i) sample.push_back(layout_.get(buf.data() + i * h.point_step));
+      for (std::size_t i = 0; i < block; ++i)
+        sample.push_back(layout_.get(buf.data() + i * h.point_step));
     }
     info_.read_seconds += since(t0);
     const auto t1 = Clock::now();
@@ -128,8 +133,9 @@ class MapJob {
  private:
   void compare(const std::uint8_t* pa, const std::uint8_t* pb, std::size_t n,
                const Eigen::Isometry3d& f, ErrorAccumulator& acc) const {
-    comparePoints(pa, layout_, pb, truth_->layout(), n,
-                  [&f](const Eigen::Vector3d& p) { return Eigen::Vector3d(f * p); }, acc);
+    comparePoints(
+        pa, layout_, pb, truth_->layout(), n,
+        [&f](const Eigen::Vector3d& p) { return Eigen::Vector3d(f * p); }, acc);
   }
 
   std::string in_;
@@ -162,7 +168,8 @@ void copyRange(int in_fd, off_t in_off, int out_fd, off_t out_off, std::size_t b
       n = ::pread(in_fd, buf.data(), std::min(bytes, buf.size()), in_off);
       if (n > 0) {
         for (ssize_t done = 0; done < n;) {
-          const ssize_t w = ::pwrite(out_fd, buf.data() + done, static_cast<std::size_t>(n - done), out_off + done);
+          const ssize_t w = ::pwrite(out_fd, buf.data() + done, static_cast<std::size_t>(n - done),
+                                     out_off + done);
           if (w < 0 && errno == EINTR) continue;
           if (w <= 0) throw Error(name + ": write failed: " + std::strerror(errno));
           done += w;
@@ -173,8 +180,9 @@ void copyRange(int in_fd, off_t in_off, int out_fd, off_t out_off, std::size_t b
     }
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0) {
-      throw Error(name + ": copying the map failed" +
-                  (n < 0 ? std::string(": ") + std::strerror(errno) : std::string(" (input cut short?)")));
+      throw Error(
+          name + ": copying the map failed" +
+          (n < 0 ? std::string(": ") + std::strerror(errno) : std::string(" (input cut short?)")));
     }
     bytes -= static_cast<std::size_t>(n);
   }
@@ -285,9 +293,9 @@ void warpMapped(MapJob& job, int fd, std::size_t offset, std::size_t first, std:
 /// having written nothing, where the filesystem cannot reserve space.
 bool warpInPlace(MapJob& job, const std::string& in, const std::string& out) {
   const PcdHeader& h = job.header();
-  const std::string text = binaryPcdHeader(job.fields(), h.point_step,
-                                           static_cast<std::uint32_t>(h.width),
-                                           static_cast<std::uint32_t>(h.height));
+  const std::string text =
+      binaryPcdHeader(job.fields(), h.point_step, static_cast<std::uint32_t>(h.width),
+                      static_cast<std::uint32_t>(h.height));
   AtomicFile file(out);
   FdGuard fd{reserveOutput(file, out, text.size() + h.points * h.point_step)};
   if (fd.fd < 0) return false;
@@ -320,7 +328,8 @@ void warpPipeline(MapJob& job, const std::string& out) {
                         static_cast<std::uint32_t>(h.height));
   const std::size_t chunk = job.chunk();
   std::array<std::vector<std::uint8_t>, 3> buffers;
-  for (auto& b : buffers) b.resize(std::min(chunk, std::max<std::size_t>(1, h.points)) * h.point_step);
+  for (auto& b : buffers)
+    b.resize(std::min(chunk, std::max<std::size_t>(1, h.points)) * h.point_step);
   auto readInto = [&](std::size_t slot) {
     const auto t0 = Clock::now();
     const std::size_t n = job.reader().read(buffers[slot].data(), chunk);

@@ -158,12 +158,14 @@ std::string reportJson(const GeoreferenceResult& r, const Params& params, const 
 std::string originYaml(const GeoreferenceResult& r, const FrameNames& frames) {
   std::ostringstream s;
   s << std::setprecision(12);
-  s << "# The frame of map_georeferenced.pcd: local East-North-Up (x east, y north, z up, metres),\n"
+  s << "# The frame of map_georeferenced.pcd: local East-North-Up (x east, y north, z up, "
+       "metres),\n"
        "# tangent to the WGS84 ellipsoid at the datum (GeographicLib LocalCartesian).\n";
   s << "frame: " << frames.enu << "\n";
   if (r.datum) {
-    s << "datum:\n  latitude: " << r.datum->lat << "    # degrees, WGS84\n  longitude: "
-      << r.datum->lon << "    # degrees, WGS84\n  altitude: " << r.datum->alt
+    s << "datum:\n  latitude: " << r.datum->lat
+      << "    # degrees, WGS84\n  longitude: " << r.datum->lon
+      << "    # degrees, WGS84\n  altitude: " << r.datum->alt
       << "    # metres above the WGS84 ellipsoid\n";
   } else {
     s << "datum: null    # the GNSS came in local coordinates without a datum\n";

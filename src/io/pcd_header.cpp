@@ -10,9 +10,9 @@
 namespace flexcloud {
 namespace {
 
-constexpr std::size_t kMaxHeader = 1 << 16;     // bytes
+constexpr std::size_t kMaxHeader = 1 << 16;  // bytes
 constexpr std::size_t kMaxFields = 4096;
-constexpr std::size_t kMaxCount = 1 << 20;      // elements of one field
+constexpr std::size_t kMaxCount = 1 << 20;  // elements of one field
 constexpr std::uint64_t kMaxPoints = 1ull << 36;
 
 [[noreturn]] void fail(const std::string& name, std::size_t line, const std::string& what) {
@@ -45,8 +45,8 @@ class HeaderLines {
     while (true) {
       const std::size_t end = bytes_.find('\n', pos_);
       if (end == std::string::npos) {
-        fail(name_, 0, pos_ == 0 ? "not a PCD file (empty or no header)"
-                                 : "the PCD header has no DATA line");
+        fail(name_, 0,
+             pos_ == 0 ? "not a PCD file (empty or no header)" : "the PCD header has no DATA line");
       }
       std::string line = bytes_.substr(pos_, end - pos_);
       pos_ = end + 1;
@@ -85,7 +85,8 @@ void readSizes(const std::string& name, const HeaderLine& l, RawHeader& raw) {
   raw.sizes.clear();
   for (const auto& v : l.vals) {
     const std::size_t s = parseCount(name, l.line_no, "SIZE", v, 8);
-    if (s != 1 && s != 2 && s != 4 && s != 8) fail(name, l.line_no, "SIZE " + v + " is not 1, 2, 4 or 8");
+    if (s != 1 && s != 2 && s != 4 && s != 8)
+      fail(name, l.line_no, "SIZE " + v + " is not 1, 2, 4 or 8");
     raw.sizes.push_back(s);
   }
   raw.have_size = true;
@@ -94,7 +95,8 @@ void readSizes(const std::string& name, const HeaderLine& l, RawHeader& raw) {
 void readTypes(const std::string& name, const HeaderLine& l, RawHeader& raw) {
   raw.types.clear();
   for (const auto& v : l.vals) {
-    if (v != "I" && v != "U" && v != "F") fail(name, l.line_no, "TYPE '" + v + "' is not I, U or F");
+    if (v != "I" && v != "U" && v != "F")
+      fail(name, l.line_no, "TYPE '" + v + "' is not I, U or F");
     raw.types.push_back(v[0]);
   }
   raw.have_type = true;
@@ -120,10 +122,12 @@ PcdHeader::Data readData(const std::string& name, const HeaderLine& l) {
 
 /// Reads one keyword line into `raw` and `h`; throws for an unknown keyword or a bad value.
 void readKeyword(const std::string& name, const HeaderLine& l, RawHeader& raw, PcdHeader& h) {
-  const bool first_keyword = !raw.have_fields && !raw.have_size && !raw.have_type && !raw.have_width;
+  const bool first_keyword =
+      !raw.have_fields && !raw.have_size && !raw.have_type && !raw.have_width;
   if (l.key == "VERSION") return;
   if (l.key == "FIELDS" || l.key == "COLUMNS") {
-    if (l.vals.empty() || l.vals.size() > kMaxFields) fail(name, l.line_no, "FIELDS lists no fields");
+    if (l.vals.empty() || l.vals.size() > kMaxFields)
+      fail(name, l.line_no, "FIELDS lists no fields");
     raw.names = l.vals;
     raw.have_fields = true;
   } else if (l.key == "SIZE") {
@@ -143,8 +147,9 @@ void readKeyword(const std::string& name, const HeaderLine& l, RawHeader& raw, P
   } else if (l.key == "DATA") {
     h.data = readData(name, l);
   } else {
-    fail(name, l.line_no, first_keyword ? "not a PCD file (no PCD header)"
-                                        : "unknown PCD header keyword '" + l.key + "'");
+    fail(name, l.line_no,
+         first_keyword ? "not a PCD file (no PCD header)"
+                       : "unknown PCD header keyword '" + l.key + "'");
   }
 }
 
@@ -156,21 +161,22 @@ void buildFields(const std::string& name, RawHeader& raw, PcdHeader& h) {
   if (!raw.have_count) raw.counts.assign(raw.names.size(), 1);
   const std::size_t n = raw.names.size();
   if (raw.sizes.size() != n || raw.types.size() != n || raw.counts.size() != n) {
-    fail(name, 0, "FIELDS, SIZE, TYPE and COUNT list different numbers of fields (" +
-                      std::to_string(n) + ", " + std::to_string(raw.sizes.size()) + ", " +
-                      std::to_string(raw.types.size()) + ", " + std::to_string(raw.counts.size()) +
-                      ")");
+    fail(name, 0,
+         "FIELDS, SIZE, TYPE and COUNT list different numbers of fields (" + std::to_string(n) +
+             ", " + std::to_string(raw.sizes.size()) + ", " + std::to_string(raw.types.size()) +
+             ", " + std::to_string(raw.counts.size()) + ")");
   }
   if (h.height == 0) fail(name, 0, "HEIGHT is 0");
   if (!raw.have_points) h.points = h.width * h.height;
   if (h.width * h.height != h.points) {
-    fail(name, 0, "WIDTH * HEIGHT (" + std::to_string(h.width) + " * " + std::to_string(h.height) +
-                      ") is not POINTS (" + std::to_string(h.points) + ")");
+    fail(name, 0,
+         "WIDTH * HEIGHT (" + std::to_string(h.width) + " * " + std::to_string(h.height) +
+             ") is not POINTS (" + std::to_string(h.points) + ")");
   }
   for (std::size_t i = 0; i < n; ++i) {
     if (raw.types[i] == 'F' && raw.sizes[i] != 4 && raw.sizes[i] != 8) {
-      fail(name, 0, "field " + raw.names[i] + ": a float of " + std::to_string(raw.sizes[i]) +
-                        " bytes");
+      fail(name, 0,
+           "field " + raw.names[i] + ": a float of " + std::to_string(raw.sizes[i]) + " bytes");
     }
     PcdField f{raw.names[i], raw.sizes[i], raw.types[i], raw.counts[i], h.point_step};
     h.point_step += f.size * f.count;
@@ -185,8 +191,9 @@ void checkBody(const std::string& name, const PcdHeader& h) {
   const std::uint64_t body = h.file_size >= h.data_offset ? h.file_size - h.data_offset : 0;
   const std::uint64_t bytes = static_cast<std::uint64_t>(h.points) * h.point_step;
   if (h.data == PcdHeader::Data::kBinary && body < bytes) {
-    fail(name, 0, "the binary body holds " + std::to_string(body) + " bytes, the header promises " +
-                      std::to_string(bytes) + " (file cut short?)");
+    fail(name, 0,
+         "the binary body holds " + std::to_string(body) + " bytes, the header promises " +
+             std::to_string(bytes) + " (file cut short?)");
   }
   if (h.data == PcdHeader::Data::kBinaryCompressed && h.points > 0 && body < 8) {
     fail(name, 0, "the compressed body is missing (file cut short?)");
@@ -195,8 +202,9 @@ void checkBody(const std::string& name, const PcdHeader& h) {
   for (const auto& f : h.fields) values += f.count;
   if (h.data == PcdHeader::Data::kAscii && h.points > 0 &&
       body + 1 < static_cast<std::uint64_t>(h.points) * 2 * values) {
-    fail(name, 0, "the ascii body (" + std::to_string(body) + " bytes) cannot hold " +
-                      std::to_string(h.points) + " points (file cut short?)");
+    fail(name, 0,
+         "the ascii body (" + std::to_string(body) + " bytes) cannot hold " +
+             std::to_string(h.points) + " points (file cut short?)");
   }
   if (h.data == PcdHeader::Data::kBinaryCompressed && bytes > 0xFFFFFFFFull) {
     fail(name, 0, "POINTS too many for a compressed PCD (more than 4 GiB unpacked)");

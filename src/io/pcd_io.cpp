@@ -102,7 +102,8 @@ void readAscii(const std::string& path, const PcdHeader& h, pcl::PCLPointCloud2&
     }
     if (tokens.empty()) continue;
     const std::string where = path + ":" + std::to_string(line_no) + ": ";
-    if (point == h.points) throw Error(where + "more points than the header's " + std::to_string(h.points));
+    if (point == h.points)
+      throw Error(where + "more points than the header's " + std::to_string(h.points));
     if (tokens.size() != values) {
       throw Error(where + "expected " + std::to_string(values) + " values, found " +
                   std::to_string(tokens.size()));
@@ -142,7 +143,8 @@ void readCompressed(const std::string& path, const PcdHeader& h, pcl::PCLPointCl
   }
   cloud.data.resize(h.points * h.point_step);
   std::vector<std::uint8_t> packed(sizes[1]);
-  const unsigned got = pcl::lzfDecompress(body.data() + sizeof(sizes), sizes[0], packed.data(), sizes[1]);
+  const unsigned got =
+      pcl::lzfDecompress(body.data() + sizeof(sizes), sizes[0], packed.data(), sizes[1]);
   if (got != sizes[1]) throw Error(path + ": the compressed body is corrupt");
   // PCL stores a compressed body field by field: every point's value of the first field, ...
   std::size_t column = 0;
@@ -179,8 +181,8 @@ pcl::PCLPointCloud2 readPcd(const std::string& path) {
 }
 
 void writePcdBinary(const std::string& path, const pcl::PCLPointCloud2& cloud) {
-  writePcdBinary(path, cloud.fields, cloud.point_step, cloud.width, cloud.height,
-                 cloud.data.data(), cloud.data.size());
+  writePcdBinary(path, cloud.fields, cloud.point_step, cloud.width, cloud.height, cloud.data.data(),
+                 cloud.data.size());
 }
 
 void writePcdBinary(const std::string& path, const std::vector<pcl::PCLPointField>& fields,

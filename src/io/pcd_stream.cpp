@@ -29,17 +29,29 @@ std::uint8_t pclType(char type, std::size_t size) {
 std::pair<char, std::size_t> pcdType(std::uint8_t datatype, const std::string& name) {
   using F = pcl::PCLPointField;
   switch (datatype) {
-    case F::INT8: return {'I', 1};
-    case F::UINT8: return {'U', 1};
-    case F::INT16: return {'I', 2};
-    case F::UINT16: return {'U', 2};
-    case F::INT32: return {'I', 4};
-    case F::UINT32: return {'U', 4};
-    case F::FLOAT32: return {'F', 4};
-    case F::FLOAT64: return {'F', 8};
-    case F::INT64: return {'I', 8};
-    case F::UINT64: return {'U', 8};
-    default: throw Error("field " + name + ": datatype " + std::to_string(datatype) + " cannot be written to PCD");
+    case F::INT8:
+      return {'I', 1};
+    case F::UINT8:
+      return {'U', 1};
+    case F::INT16:
+      return {'I', 2};
+    case F::UINT16:
+      return {'U', 2};
+    case F::INT32:
+      return {'I', 4};
+    case F::UINT32:
+      return {'U', 4};
+    case F::FLOAT32:
+      return {'F', 4};
+    case F::FLOAT64:
+      return {'F', 8};
+    case F::INT64:
+      return {'I', 8};
+    case F::UINT64:
+      return {'U', 8};
+    default:
+      throw Error("field " + name + ": datatype " + std::to_string(datatype) +
+                  " cannot be written to PCD");
   }
 }
 
@@ -86,9 +98,9 @@ std::string binaryPcdHeader(const std::vector<pcl::PCLPointField>& fields, std::
   if (at > point_step) throw Error("the fields need more bytes than the point step");
   if (at < point_step) pad(point_step - at);
   std::ostringstream h;
-  h << "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS" << names.str()
-    << "\nSIZE" << sizes.str() << "\nTYPE" << types.str() << "\nCOUNT" << counts.str()
-    << "\nWIDTH " << width << "\nHEIGHT " << height << "\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS "
+  h << "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS" << names.str() << "\nSIZE"
+    << sizes.str() << "\nTYPE" << types.str() << "\nCOUNT" << counts.str() << "\nWIDTH " << width
+    << "\nHEIGHT " << height << "\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS "
     << static_cast<std::uint64_t>(width) * height << "\nDATA binary\n";
   return h.str();
 }
@@ -114,8 +126,9 @@ void PcdChunkReader::readAt(std::size_t first, std::size_t count, std::uint8_t* 
     const ssize_t n = ::pread(fd_, buf, bytes, offset);
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0) {
-      throw Error(path_ + ": read failed at byte " + std::to_string(offset) +
-                  (n < 0 ? std::string(": ") + std::strerror(errno) : std::string(" (file cut short?)")));
+      throw Error(
+          path_ + ": read failed at byte " + std::to_string(offset) +
+          (n < 0 ? std::string(": ") + std::strerror(errno) : std::string(" (file cut short?)")));
     }
     buf += n;
     offset += n;
@@ -133,7 +146,9 @@ std::size_t PcdChunkReader::read(std::uint8_t* buf, std::size_t max_points) {
 PcdChunkWriter::PcdChunkWriter(const std::string& path,
                                const std::vector<pcl::PCLPointField>& fields,
                                std::size_t point_step, std::uint32_t width, std::uint32_t height)
-    : path_(path), file_(path), point_step_(point_step),
+    : path_(path),
+      file_(path),
+      point_step_(point_step),
       expected_(static_cast<std::size_t>(width) * height) {
   const std::string header = binaryPcdHeader(fields, point_step, width, height);
   fd_ = ::open(file_.tempPath().c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);

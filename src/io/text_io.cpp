@@ -45,8 +45,9 @@ Table parseTable(const std::string& text, const std::string& name,
     if (std::find(columns.begin(), columns.end(), tokens.size()) == columns.end()) {
       std::string counts;
       for (std::size_t c : columns) counts += (counts.empty() ? "" : " or ") + std::to_string(c);
-      fail(name, line_no, "expected " + layout + " (" + counts + " columns), found " +
-                              std::to_string(tokens.size()));
+      fail(name, line_no,
+           "expected " + layout + " (" + counts + " columns), found " +
+               std::to_string(tokens.size()));
     }
     std::vector<double> row;
     row.reserve(tokens.size());
@@ -66,7 +67,8 @@ Table parseTable(const std::string& text, const std::string& name,
     if (stamp_text[i].find_first_of(".eEnN") != std::string::npos) integers = false;
     if (std::abs(t.rows[i][0]) > 1e12) large = true;
   }
-  const bool ns = unit == StampUnit::kNanoseconds || (unit == StampUnit::kAuto && integers && large);
+  const bool ns =
+      unit == StampUnit::kNanoseconds || (unit == StampUnit::kAuto && integers && large);
   t.stamps.reserve(t.rows.size());
   for (std::size_t i = 0; i < t.rows.size(); ++i) {
     if (ns && integers) {
@@ -126,8 +128,8 @@ std::vector<RawFix> parseGeodeticGnss(const std::string& text, const std::string
     f.fix.lat = r[1];
     f.fix.lon = r[2];
     f.fix.alt = r[3];
-    f.fix.std_enu = r.size() == 7 ? Eigen::Vector3d(r[4], r[5], r[6])
-                                  : Eigen::Vector3d::Constant(std::nan(""));
+    f.fix.std_enu =
+        r.size() == 7 ? Eigen::Vector3d(r[4], r[5], r[6]) : Eigen::Vector3d::Constant(std::nan(""));
     out.push_back(f);
   }
   return out;
@@ -143,8 +145,8 @@ std::vector<GnssPoint> parseLocalGnss(const std::string& text, const std::string
     GnssPoint g;
     g.stamp = t.stamps[i];
     g.position = Eigen::Vector3d(r[1], r[2], r[3]);
-    g.std_dev = r.size() == 7 ? Eigen::Vector3d(r[4], r[5], r[6])
-                              : Eigen::Vector3d::Constant(std::nan(""));
+    g.std_dev =
+        r.size() == 7 ? Eigen::Vector3d(r[4], r[5], r[6]) : Eigen::Vector3d::Constant(std::nan(""));
     out.push_back(g);
   }
   return out;
@@ -167,9 +169,8 @@ std::string formatTum(const Trajectory& poses) {
   s << std::fixed;
   for (const auto& p : poses) {
     s << std::setprecision(9) << p.stamp << ' ' << std::setprecision(6) << p.position.x() << ' '
-      << p.position.y() << ' ' << p.position.z() << ' ' << std::setprecision(9)
-      << p.orientation.x() << ' ' << p.orientation.y() << ' ' << p.orientation.z() << ' '
-      << p.orientation.w() << '\n';
+      << p.position.y() << ' ' << p.position.z() << ' ' << std::setprecision(9) << p.orientation.x()
+      << ' ' << p.orientation.y() << ' ' << p.orientation.z() << ' ' << p.orientation.w() << '\n';
   }
   return s.str();
 }

@@ -80,7 +80,8 @@ std::set<std::uint64_t> checkChunk(const std::string& path, const std::uint8_t* 
     c.skip(hlen);
     if (!c.u32(dlen) || dlen > c.left()) throw Error(where + " has data longer than the chunk");
     const auto op = f.find("op");
-    if (op == f.end() || op->second.size() != 1 || (op->second[0] != 0x02 && op->second[0] != 0x07)) {
+    if (op == f.end() || op->second.size() != 1 ||
+        (op->second[0] != 0x02 && op->second[0] != 0x07)) {
       throw Error(where + " is neither a message nor a connection");
     }
     if (op->second[0] == 0x07) {
@@ -95,7 +96,8 @@ std::set<std::uint64_t> checkChunk(const std::string& path, const std::uint8_t* 
 /// One pass over a bag's records, checking each against the file and the others.
 class BagScan {
  public:
-  explicit BagScan(const std::string& path) : path_(path), in_(path, std::ios::binary | std::ios::ate) {
+  explicit BagScan(const std::string& path)
+      : path_(path), in_(path, std::ios::binary | std::ios::ate) {
     if (!in_) throw Error(path + ": cannot open: " + std::strerror(errno));
     size_ = static_cast<std::uint64_t>(in_.tellg());
     in_.seekg(0);
@@ -136,7 +138,8 @@ class BagScan {
     buf_.resize(hlen);
     in_.read(reinterpret_cast<char*>(buf_.data()), static_cast<std::streamsize>(hlen));
     Fields f;
-    if (!in_ || !parseFields(buf_.data(), hlen, f)) throw Error(where() + " has a malformed header");
+    if (!in_ || !parseFields(buf_.data(), hlen, f))
+      throw Error(where() + " has a malformed header");
     data_at_ = at_ + 4 + hlen + 4;
     if (size_ - at_ - 4 - hlen < 4) throw Error(where() + " is cut short");
     in_.read(reinterpret_cast<char*>(&dlen_), 4);
@@ -161,8 +164,9 @@ class BagScan {
       case 0x03:  // bag header
         index_pos_ = number(f, "index_pos");
         if (index_pos_ > size_) {
-          throw Error(where() + ": the index lies beyond the end of the file (cut short? "
-                                "'rosbag reindex' may repair it)");
+          throw Error(where() +
+                      ": the index lies beyond the end of the file (cut short? "
+                      "'rosbag reindex' may repair it)");
         }
         return false;
       case 0x05:
@@ -210,7 +214,8 @@ class BagScan {
   /// Index data: where the messages of a connection lie in the last chunk.
   bool onIndexData(const Fields& f) {
     const std::uint64_t count = number(f, "count");
-    if (number(f, "ver") != 1 || count * 12 != dlen_) throw Error(where() + ": malformed index data");
+    if (number(f, "ver") != 1 || count * 12 != dlen_)
+      throw Error(where() + ": malformed index data");
     if (!chunk_known_) return false;
     readData();
     for (std::uint64_t k = 0; k < count; ++k) {
@@ -225,10 +230,12 @@ class BagScan {
 
   void finish() const {
     if (index_pos_ == 0) {
-      throw Error(path_ + ": the bag has no index (cut short while recording?); run 'rosbag reindex " +
+      throw Error(path_ +
+                  ": the bag has no index (cut short while recording?); run 'rosbag reindex " +
                   path_ + "' first");
     }
-    if (records_.count(index_pos_) == 0) throw Error(path_ + ": the index position is not a record");
+    if (records_.count(index_pos_) == 0)
+      throw Error(path_ + ": the index position is not a record");
     for (std::uint64_t c : chunk_infos_) {
       if (chunks_.count(c) == 0) throw Error(path_ + ": a chunk info points to no chunk");
     }
@@ -272,7 +279,8 @@ bool cloudLengthsFit(const std::uint8_t* data, std::size_t size) {
   Cursor c(data, size);
   std::uint32_t fields = 0, bytes = 0;
   if (!skipHeader(c) || !c.skip(8) || !c.u32(fields)) return false;
-  if (static_cast<std::uint64_t>(fields) * 13 > c.left()) return false;  // name len, offset, type, count
+  if (static_cast<std::uint64_t>(fields) * 13 > c.left())
+    return false;  // name len, offset, type, count
   for (std::uint32_t i = 0; i < fields; ++i) {
     std::uint32_t len = 0;
     if (!c.u32(len) || !c.skip(len) || !c.skip(4 + 1 + 4)) return false;

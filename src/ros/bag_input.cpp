@@ -52,8 +52,8 @@ std::string resolve(const std::string& bag, const std::map<std::string, std::str
   }
   if (candidates.size() == 1) return candidates.front();
   if (candidates.empty()) {
-    throw Error(bag + ": no " + what + " topic (" + expected + ") in the bag (topics: " +
-                listing(types) + ")");
+    throw Error(bag + ": no " + what + " topic (" + expected +
+                ") in the bag (topics: " + listing(types) + ")");
   }
   std::string names;
   for (const auto& c : candidates) names += (names.empty() ? "" : ", ") + c;
@@ -61,8 +61,8 @@ std::string resolve(const std::string& bag, const std::map<std::string, std::str
 }
 
 /// Checks the vector lengths of a message before the deserializer resizes to them.
-bool lengthsFit(const rosbag::MessageInstance& m,
-                bool (*fits)(const std::uint8_t*, std::size_t), const std::string& bag) {
+bool lengthsFit(const rosbag::MessageInstance& m, bool (*fits)(const std::uint8_t*, std::size_t),
+                const std::string& bag) {
   std::vector<std::uint8_t> raw(m.size());
   ros::serialization::OStream stream(raw.data(), static_cast<std::uint32_t>(raw.size()));
   m.write(stream);
@@ -95,8 +95,7 @@ BagSummary readBag(const std::string& path, const BagTopics& topics, DriveCollec
     out.odom_type = types.at(out.odom_topic);
     std::vector<std::string> read{out.fix_topic, out.odom_topic};
     if (!topics.map.empty()) {
-      out.map_topic =
-          resolve(path, types, topics.map, {kCloudType}, "map", "--map-topic", false);
+      out.map_topic = resolve(path, types, topics.map, {kCloudType}, "map", "--map-topic", false);
       read.push_back(out.map_topic);
     }
     rosbag::View view(bag, rosbag::TopicQuery(read));
@@ -129,11 +128,15 @@ BagSummary readBag(const std::string& path, const BagTopics& topics, DriveCollec
       }
     }
   } catch (const rosbag::BagUnindexedException&) {
-    throw Error(path + ": the bag has no index (cut short while recording?); run "
-                       "'rosbag reindex " + path + "' first");
+    throw Error(path +
+                ": the bag has no index (cut short while recording?); run "
+                "'rosbag reindex " +
+                path + "' first");
   } catch (const rosbag::BagException& e) {
-    throw Error(path + ": not a readable bag (if it was cut short, 'rosbag reindex' may repair "
-                       "it): " + e.what());
+    throw Error(path +
+                ": not a readable bag (if it was cut short, 'rosbag reindex' may repair "
+                "it): " +
+                e.what());
   } catch (const ros::Exception& e) {
     throw Error(path + ": corrupt message data: " + e.what());
   } catch (const Error&) {

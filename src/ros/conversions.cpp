@@ -14,7 +14,8 @@ RawFix fromNavSatFix(const sensor_msgs::NavSatFix& msg) {
   f.fix.lon = msg.longitude;
   f.fix.alt = msg.altitude;
   const auto& c = msg.position_covariance;
-  const bool unknown = msg.position_covariance_type == sensor_msgs::NavSatFix::COVARIANCE_TYPE_UNKNOWN;
+  const bool unknown =
+      msg.position_covariance_type == sensor_msgs::NavSatFix::COVARIANCE_TYPE_UNKNOWN;
   const bool all_zero = c[0] == 0.0 && c[4] == 0.0 && c[8] == 0.0;
   if (unknown || all_zero) {
     f.fix.std_enu.setConstant(std::nan(""));
@@ -69,7 +70,8 @@ sensor_msgs::NavSatFix toNavSatFix(const RawFix& fix, const std::string& frame_i
   m.altitude = fix.fix.alt;
   if (fix.fix.std_enu.allFinite()) {
     m.position_covariance_type = sensor_msgs::NavSatFix::COVARIANCE_TYPE_DIAGONAL_KNOWN;
-    for (int a = 0; a < 3; ++a) m.position_covariance[4 * a] = fix.fix.std_enu(a) * fix.fix.std_enu(a);
+    for (int a = 0; a < 3; ++a)
+      m.position_covariance[4 * a] = fix.fix.std_enu(a) * fix.fix.std_enu(a);
   } else {
     m.position_covariance_type = sensor_msgs::NavSatFix::COVARIANCE_TYPE_UNKNOWN;
   }

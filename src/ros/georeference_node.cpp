@@ -117,8 +117,9 @@ void GeoreferenceNode::subscribe() {
   } else {
     using namespace sensor_msgs;
     subscribers_.push_back(nh_.subscribe<NavSatFix>(
-        "fix", q, boost::function<void(const NavSatFixConstPtr&)>(
-                      [this](const NavSatFixConstPtr& m) { collector_.handleFix(*m); })));
+        "fix", q,
+        boost::function<void(const NavSatFixConstPtr&)>(
+            [this](const NavSatFixConstPtr& m) { collector_.handleFix(*m); })));
     if (params_.odom_type == "odometry") {
       subscribers_.push_back(nh_.subscribe<nav_msgs::Odometry>(
           "odom", q,
@@ -131,8 +132,9 @@ void GeoreferenceNode::subscribe() {
               [this](const geometry_msgs::PoseStampedConstPtr& m) { collector_.handlePose(*m); })));
     } else {
       subscribers_.push_back(nh_.subscribe<nav_msgs::Path>(
-          "odom", q, boost::function<void(const nav_msgs::PathConstPtr&)>(
-                         [this](const nav_msgs::PathConstPtr& m) { collector_.handlePath(*m); })));
+          "odom", q,
+          boost::function<void(const nav_msgs::PathConstPtr&)>(
+              [this](const nav_msgs::PathConstPtr& m) { collector_.handlePath(*m); })));
     }
   }
   if (params_.map_file.empty()) {
@@ -164,10 +166,11 @@ void GeoreferenceNode::readBag() {
   topics.fall_back_by_type = true;
   std::string error;
   try {
-    const BagSummary s = flexcloud::readBag(params_.bag, topics, collector_, nullptr, [this](double) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (bag_stop_) throw BagStopped{};
-    });
+    const BagSummary s =
+        flexcloud::readBag(params_.bag, topics, collector_, nullptr, [this](double) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          if (bag_stop_) throw BagStopped{};
+        });
     ROS_INFO("%s: read %zu fixes on %s and %zu poses on %s from %s", name_.c_str(), s.fixes,
              s.fix_topic.c_str(), s.poses, s.odom_topic.c_str(), params_.bag.c_str());
   } catch (const BagStopped&) {
@@ -275,11 +278,11 @@ flexcloud::Result GeoreferenceNode::finish(std::shared_ptr<const NodeResult> res
   result_ = result;
   lock.unlock();
   const auto& r = result->result;
-  std::string message = "georeferenced " + std::to_string(r.poses.size()) + " poses with " +
-                        std::to_string(r.control_points.points.size()) + " control points" +
-                        (result->map ? " and a map of " +
-                                           std::to_string(result->map_info.warp.points) + " points"
-                                     : " (no map yet)");
+  std::string message =
+      "georeferenced " + std::to_string(r.poses.size()) + " poses with " +
+      std::to_string(r.control_points.points.size()) + " control points" +
+      (result->map ? " and a map of " + std::to_string(result->map_info.warp.points) + " points"
+                   : " (no map yet)");
   for (const auto& w : result->warnings) message += "; warning: " + w;
   publisher_->show(*result);
   const auto msg = toResultMsg(result.get(), true, message);
@@ -297,7 +300,8 @@ std::shared_ptr<const NodeResult> GeoreferenceNode::run(const NodeParams& params
   const DriveInput input = collector_.snapshot();
   const std::string source = params.bag.empty() ? "" : params.bag;
   if (input.fixes.empty()) {
-    throw Error("no GNSS fix received yet on " + (source.empty() ? nh_.resolveName("fix") : source));
+    throw Error("no GNSS fix received yet on " +
+                (source.empty() ? nh_.resolveName("fix") : source));
   }
   if (input.poses.empty()) {
     throw Error("no pose received yet on " + (source.empty() ? nh_.resolveName("odom") : source));
@@ -306,7 +310,7 @@ std::shared_ptr<const NodeResult> GeoreferenceNode::run(const NodeParams& params
   cancel.check("georeferencing");
   s->params = params;
   s->frames.enu = params.enu_frame;
-  s->frames.map = !params.map_frame.empty()       ? params.map_frame
+  s->frames.map = !params.map_frame.empty()        ? params.map_frame
                   : !collector_.mapFrame().empty() ? collector_.mapFrame()
                                                    : std::string("map");
   s->map = warpMap(params, s->result, cancel, s->map_info);
@@ -340,8 +344,7 @@ sensor_msgs::PointCloud2ConstPtr GeoreferenceNode::warpMap(const NodeParams& par
   info.input = name;
   info.warp = warpPoints(warped->data.data(), ros_conv::xyzLayout(*warped, name), *r.sheet,
                          params.core.threads, name, cancel);
-  info.warp_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  info.warp_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   warped->header.frame_id = params.enu_frame;
   warped->header.stamp = ros::Time::now();
   return warped;
@@ -441,9 +444,9 @@ std_srvs::Trigger::Response GeoreferenceNode::reset() {
   publisher_->report(toResultMsg(nullptr, true, "reset: no result"));
   if (!params_.bag.empty()) startBagRead();
   res.success = true;
-  res.message = params_.bag.empty() ? "cleared every fix, pose and the result"
-                                    : "cleared every fix, pose and the result; reading " +
-                                          params_.bag + " again";
+  res.message = params_.bag.empty()
+                    ? "cleared every fix, pose and the result"
+                    : "cleared every fix, pose and the result; reading " + params_.bag + " again";
   ROS_INFO("%s: %s", name_.c_str(), res.message.c_str());
   return res;
 }

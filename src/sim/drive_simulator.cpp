@@ -15,7 +15,8 @@ constexpr std::size_t kRouteSamples = 200000;
 class Route {
  public:
   Route(std::vector<Eigen::Vector3d> pts) : pts_(std::move(pts)), s_(pts_.size(), 0.0) {
-    for (std::size_t i = 1; i < pts_.size(); ++i) s_[i] = s_[i - 1] + (pts_[i] - pts_[i - 1]).norm();
+    for (std::size_t i = 1; i < pts_.size(); ++i)
+      s_[i] = s_[i - 1] + (pts_[i] - pts_[i - 1]).norm();
   }
   double length() const { return s_.back(); }
 
@@ -46,8 +47,7 @@ class Route {
 
 Route makeRoute(const SimParams& p, std::mt19937_64& rng) {
   std::uniform_real_distribution<double> phase(0.0, 2.0 * kPi);
-  const double f1 = phase(rng), f2 = phase(rng), f3 = phase(rng), f4 = phase(rng),
-               f5 = phase(rng);
+  const double f1 = phase(rng), f2 = phase(rng), f3 = phase(rng), f4 = phase(rng), f5 = phase(rng);
   std::vector<Eigen::Vector3d> pts(kRouteSamples);
   for (int pass = 0; pass < 3; ++pass) {  // rescale until the length matches
     const double scale = pass == 0 ? p.length / 6.0 : p.length / Route(pts).length();
@@ -61,9 +61,9 @@ Route makeRoute(const SimParams& p, std::mt19937_64& rng) {
         q = Eigen::Vector3d(r * std::cos(th), 0.75 * r * std::sin(th), 0.0);
         q.z() = 6.0 * std::sin(th + f4) + 1.5 * std::sin(7 * th + f5);
       } else {
-        q = Eigen::Vector3d(u, 0.12 * std::sin(2 * kPi * 1.3 * u + f1) +
-                                   0.04 * std::sin(2 * kPi * 3.1 * u + f2),
-                            0.0);
+        q = Eigen::Vector3d(
+            u, 0.12 * std::sin(2 * kPi * 1.3 * u + f1) + 0.04 * std::sin(2 * kPi * 3.1 * u + f2),
+            0.0);
         q.z() = 8.0 * std::sin(2 * kPi * 0.8 * u + f4) + 2.0 * std::sin(2 * kPi * 2.7 * u + f5);
       }
       const double z = q.z() * p.elevation;
@@ -95,7 +95,8 @@ Eigen::Matrix3d expSo3(const Eigen::Vector3d& w) {
 }
 
 bool inAny(const std::vector<TimeRange>& ranges, double t) {
-  return std::any_of(ranges.begin(), ranges.end(), [&](const TimeRange& r) { return r.contains(t); });
+  return std::any_of(ranges.begin(), ranges.end(),
+                     [&](const TimeRange& r) { return r.contains(t); });
 }
 
 /// SLAM trajectory: true increments with scale error, heading/pitch bias and random walks.
@@ -136,8 +137,8 @@ std::vector<Eigen::Isometry3d> integrateSlam(const std::vector<Eigen::Isometry3d
   const bool per_lap = p.close_each_lap && p.laps > 1;
   std::size_t end = n - 1;
   if (per_lap) {
-    end = static_cast<std::size_t>(std::lower_bound(arc.begin(), arc.end(), arc.front() + lap - 1e-6) -
-                                   arc.begin());
+    end = static_cast<std::size_t>(
+        std::lower_bound(arc.begin(), arc.end(), arc.front() + lap - 1e-6) - arc.begin());
     end = std::min(end, n - 1);
   }
   const Eigen::Isometry3d expected = truth.front().inverse() * truth[end];
@@ -158,7 +159,10 @@ std::vector<Eigen::Isometry3d> integrateSlam(const std::vector<Eigen::Isometry3d
     for (std::size_t k = end + 1; k < n; ++k) {
       const double on_first = arc.front() + std::fmod(arc[k] - arc.front(), lap);
       const auto j = std::min<std::size_t>(
-          static_cast<std::size_t>(std::lower_bound(arc.begin(), arc.begin() + static_cast<std::ptrdiff_t>(end) + 1, on_first) - arc.begin()),
+          static_cast<std::size_t>(
+              std::lower_bound(arc.begin(), arc.begin() + static_cast<std::ptrdiff_t>(end) + 1,
+                               on_first) -
+              arc.begin()),
           end);
       slam[k] = slam[j] * truth[j].inverse() * truth[k];  // the same distortion of the place
       slam[k].translation() += 0.02 * Eigen::Vector3d(n01(rng), n01(rng), n01(rng));
@@ -190,8 +194,8 @@ double unitHash(std::int64_t i, std::uint64_t seed) {
 
 void makeMap(const Route& route, const std::vector<double>& arc,
              const std::vector<Eigen::Isometry3d>& truth,
-             const std::vector<Eigen::Isometry3d>& slam, const SimParams& p,
-             std::mt19937_64& rng, SimMap& map) {
+             const std::vector<Eigen::Isometry3d>& slam, const SimParams& p, std::mt19937_64& rng,
+             SimMap& map) {
   std::uniform_real_distribution<double> u01(0.0, 1.0);
   const double length = route.length();
   const std::size_t n = p.map_points;
@@ -200,8 +204,8 @@ void makeMap(const Route& route, const std::vector<double>& arc,
   map.intensity.reserve(n);
   map.ring.reserve(n);
   map.label.reserve(n);
-  std::vector<std::size_t> scan(n);    // the pose that saw each point
-  std::vector<double> azimuth(n);      // and its direction from that pose
+  std::vector<std::size_t> scan(n);  // the pose that saw each point
+  std::vector<double> azimuth(n);    // and its direction from that pose
   for (std::size_t i = 0; i < n; ++i) {
     double s = u01(rng) * length;
     const double kind = u01(rng);
@@ -221,9 +225,9 @@ void makeMap(const Route& route, const std::vector<double>& arc,
       s = std::min(length, (static_cast<double>(idx) + 0.5) * 30.0);
       const double side = unitHash(idx, p.seed + 2) < 0.5 ? -1.0 : 1.0;
       const double a = 2.0 * kPi * u01(rng);
-      local = Eigen::Vector3d(0.15 * std::cos(a),
-                              side * (4.0 + 21.0 * unitHash(idx, p.seed + 3)) + 0.15 * std::sin(a),
-                              h);
+      local =
+          Eigen::Vector3d(0.15 * std::cos(a),
+                          side * (4.0 + 21.0 * unitHash(idx, p.seed + 3)) + 0.15 * std::sin(a), h);
       label = 3;
     }
     const Eigen::Vector3d truth_pt = route.poseAt(s) * local;
@@ -231,8 +235,8 @@ void makeMap(const Route& route, const std::vector<double>& arc,
     const double on_lap = std::floor(u01(rng) * p.laps) * length;
     const double s_obs = std::clamp(on_lap + s + (u01(rng) - 0.5) * 20.0, arc.front(), arc.back());
     const auto it = std::lower_bound(arc.begin(), arc.end(), s_obs);
-    const std::size_t k = std::min<std::size_t>(static_cast<std::size_t>(it - arc.begin()),
-                                                arc.size() - 1);
+    const std::size_t k =
+        std::min<std::size_t>(static_cast<std::size_t>(it - arc.begin()), arc.size() - 1);
     scan[i] = k;
     const Eigen::Vector3d seen = truth[k].inverse() * truth_pt;
     azimuth[i] = std::atan2(seen.y(), seen.x());
@@ -269,18 +273,19 @@ std::string validate(const SimParams& p) {
   };
   req(std::isfinite(p.length) && p.length >= 100.0 && p.length <= 1e6,
       "length must be in [100, 1e6] m");
-  req(p.laps >= 1 && p.laps <= 100 && (p.loop || p.laps == 1), "laps must be 1..100, and 1 on an open route");
+  req(p.laps >= 1 && p.laps <= 100 && (p.loop || p.laps == 1),
+      "laps must be 1..100, and 1 on an open route");
   req(std::isfinite(p.elevation) && p.elevation >= 0.0 && p.elevation <= 10.0,
       "elevation must be in [0, 10]");
-  req(std::isfinite(p.speed) && p.speed > 0.1 && p.speed <= 100.0, "speed must be in (0.1, 100] m/s");
+  req(std::isfinite(p.speed) && p.speed > 0.1 && p.speed <= 100.0,
+      "speed must be in (0.1, 100] m/s");
   req(std::isfinite(p.stop_duration) && p.stop_duration >= 0.0 && p.stop_duration <= 36000.0,
       "stop_duration must be in [0, 36000] s");
   req(std::isfinite(p.odom_rate) && p.odom_rate > 0.0 && p.odom_rate <= 1000.0,
       "odom_rate must be in (0, 1000] Hz");
   req(std::isfinite(p.gnss_rate) && p.gnss_rate > 0.0 && p.gnss_rate <= 1000.0,
       "gnss_rate must be in (0, 1000] Hz");
-  req(p.gnss_noise_h >= 0.0 && p.gnss_noise_v >= 0.0 && p.outage_noise >= 0.0 &&
-          p.outage_std > 0.0,
+  req(p.gnss_noise_h >= 0.0 && p.gnss_noise_v >= 0.0 && p.outage_noise >= 0.0 && p.outage_std > 0.0,
       "GNSS noise and std-devs must not be negative");
   req(std::isfinite(p.clock_offset) && std::abs(p.clock_offset) <= 100.0,
       "clock_offset must be in [-100, 100] s");
@@ -324,9 +329,9 @@ SimDrive simulateDrive(const SimParams& p) {
   for (std::size_t j = 0; j < n_gnss; ++j) {
     const double t = static_cast<double>(j) / p.gnss_rate;
     const bool outage = inAny(p.outages, t);
-    const Eigen::Vector3d sigma = outage ? Eigen::Vector3d::Constant(p.outage_noise)
-                                         : Eigen::Vector3d(p.gnss_noise_h, p.gnss_noise_h,
-                                                           p.gnss_noise_v);
+    const Eigen::Vector3d sigma =
+        outage ? Eigen::Vector3d::Constant(p.outage_noise)
+               : Eigen::Vector3d(p.gnss_noise_h, p.gnss_noise_h, p.gnss_noise_v);
     const Eigen::Vector3d noise(sigma.x() * n01(rng), sigma.y() * n01(rng), sigma.z() * n01(rng));
     const Eigen::Vector3d pos = poseAt(arcAt(t, p, length)).translation() + noise;
     RawFix f;
@@ -336,8 +341,8 @@ SimDrive simulateDrive(const SimParams& p) {
     f.fix.lat = f.has_fix ? g.lat : 0.0;
     f.fix.lon = f.has_fix ? g.lon : 0.0;
     f.fix.alt = f.has_fix ? g.alt : 0.0;
-    f.fix.std_enu = outage ? Eigen::Vector3d::Constant(p.outage_std)
-                           : Eigen::Vector3d(std_h, std_h, std_v);
+    f.fix.std_enu =
+        outage ? Eigen::Vector3d::Constant(p.outage_std) : Eigen::Vector3d(std_h, std_h, std_v);
     d.fixes.push_back(f);
   }
   makeMap(route, arc, truth, slam, p, rng, d.map);  // points of one lap, seen on any lap

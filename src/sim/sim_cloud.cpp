@@ -27,7 +27,8 @@ pcl::PCLPointCloud2 build(const SimMap& map, bool truth) {
   c.fields = {field("x", 0, truth ? F::FLOAT64 : F::FLOAT32),
               field("y", xyz, truth ? F::FLOAT64 : F::FLOAT32),
               field("z", 2 * xyz, truth ? F::FLOAT64 : F::FLOAT32),
-              field("intensity", base, F::FLOAT32), field("ring", base + 4, F::UINT16),
+              field("intensity", base, F::FLOAT32),
+              field("ring", base + 4, F::UINT16),
               field("label", base + 8, F::UINT32)};
   c.point_step = base + 12;
   c.height = 1;

@@ -3,6 +3,7 @@
 //   flexcloud_benchmark [--points 1000000,10000000] [--control-points 50,200,2000]
 //                       [--threads N] [--work DIR] [--repeat N] [--skip-tool]
 
+#include <pcl/io/pcd_io.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -25,8 +26,6 @@
 #include "flexcloud/io/pcd_io.h"
 #include "flexcloud/io/text_io.h"
 #include "flexcloud/sim/sim_cloud.h"
-
-#include <pcl/io/pcd_io.h>
 
 namespace {
 
@@ -169,21 +168,22 @@ IoTimes benchmarkPcdIo(const Options& o, const pcl::PCLPointCloud2& original,
   t.read = best(o.repeat, [&] { readPcd(pcd); });
   std::printf("| %zu | PCD write (binary) | | %.3f s | %.1f M/s | cloud %.0f MB |\n", n, t.write,
               n / t.write / 1e6, mb);
-  std::printf("| %zu | PCD read (binary) | | %.3f s | %.1f M/s | |\n", n, t.read,
-              n / t.read / 1e6);
+  std::printf("| %zu | PCD read (binary) | | %.3f s | %.1f M/s | |\n", n, t.read, n / t.read / 1e6);
   t.pcl_write = best(o.repeat, [&] { pcl::PCDWriter().writeBinary(dir + "/pcl.pcd", original); });
   t.pcl_read = best(o.repeat, [&] {
     pcl::PCLPointCloud2 c;
     pcl::PCDReader().read(dir + "/pcl.pcd", c);
   });
-  std::printf("| %zu | PCL's PCD write / read (binary), for reference | | %.3f / %.3f s | %.1f / "
-              "%.1f M/s | |\n",
-              n, t.pcl_write, t.pcl_read, n / t.pcl_write / 1e6, n / t.pcl_read / 1e6);
+  std::printf(
+      "| %zu | PCL's PCD write / read (binary), for reference | | %.3f / %.3f s | %.1f / "
+      "%.1f M/s | |\n",
+      n, t.pcl_write, t.pcl_read, n / t.pcl_write / 1e6, n / t.pcl_read / 1e6);
   return t;
 }
 
 /// The drive as the offline tool's text input; returns the GNSS and pose file paths.
-std::pair<std::string, std::string> writeToolInputs(const sim::SimDrive& d, const std::string& dir) {
+std::pair<std::string, std::string> writeToolInputs(const sim::SimDrive& d,
+                                                    const std::string& dir) {
   std::ostringstream g;
   g.precision(12);
   for (const auto& f : d.fixes) {
@@ -207,16 +207,17 @@ void benchmarkWarp(const Options& o, int cps, const GeoreferenceResult& r,
     std::copy(original.data.begin(), original.data.end(), cloud.data.begin());
     warp_s = std::min(warp_s, seconds([&] { warpCloud(cloud, *r.sheet, o.threads); }));
   }
-  std::printf("| %zu | warp (locate + transform) | %d (%zu tetrahedra) | %.3f s | **%.1f M/s** | "
-              "first warp, with the location grid built: %.3f s |\n",
-              n, cps, r.sheet->numTetrahedra(), warp_s, n / warp_s / 1e6, first_s);
+  std::printf(
+      "| %zu | warp (locate + transform) | %d (%zu tetrahedra) | %.3f s | **%.1f M/s** | "
+      "first warp, with the location grid built: %.3f s |\n",
+      n, cps, r.sheet->numTetrahedra(), warp_s, n / warp_s / 1e6, first_s);
   double shuffled_s = 1e300;
   for (int i = 0; i < o.repeat; ++i) {
     pcl::PCLPointCloud2 c = random;
     shuffled_s = std::min(shuffled_s, seconds([&] { warpCloud(c, *r.sheet, o.threads); }));
   }
-  std::printf("| %zu | warp, points in random order (worst case) | %d | %.3f s | %.1f M/s | |\n",
-              n, cps, shuffled_s, n / shuffled_s / 1e6);
+  std::printf("| %zu | warp, points in random order (worst case) | %d | %.3f s | %.1f M/s | |\n", n,
+              cps, shuffled_s, n / shuffled_s / 1e6);
 }
 
 /// The whole offline tool on the map file: best wall time and its own peak memory.
@@ -240,10 +241,11 @@ void benchmarkTool(const Options& o, int cps, const std::pair<std::string, std::
   const std::string text((std::istreambuf_iterator<char>(report)), {});
   const auto at = text.find("\"peak_memory_mb\":");
   t.max_rss_mb = at == std::string::npos ? 0.0 : std::stod(text.substr(at + 17));
-  std::printf("| %zu | whole offline tool | %d | %.3f s | %.1f M/s | peak %.0f MB = **%.2f x** "
-              "cloud; **%.2f x** (read + write), %.2f x PCL's |\n",
-              n, cps, t.seconds, n / t.seconds / 1e6, t.max_rss_mb, t.max_rss_mb / mb,
-              t.seconds / (io.read + io.write), t.seconds / (io.pcl_read + io.pcl_write));
+  std::printf(
+      "| %zu | whole offline tool | %d | %.3f s | %.1f M/s | peak %.0f MB = **%.2f x** "
+      "cloud; **%.2f x** (read + write), %.2f x PCL's |\n",
+      n, cps, t.seconds, n / t.seconds / 1e6, t.max_rss_mb, t.max_rss_mb / mb,
+      t.seconds / (io.read + io.write), t.seconds / (io.pcl_read + io.pcl_write));
 }
 
 void onePointCount(const Options& o, std::size_t n) {
@@ -268,7 +270,8 @@ void onePointCount(const Options& o, std::size_t n) {
     const GeoreferenceResult r = georeference(in, p);
     benchmarkWarp(o, cps, r, original, random);
     if (o.tool) {
-      benchmarkTool(o, cps, inputs, pcd, dir, n, static_cast<double>(original.data.size()) / 1e6, io);
+      benchmarkTool(o, cps, inputs, pcd, dir, n, static_cast<double>(original.data.size()) / 1e6,
+                    io);
     }
     std::fflush(stdout);
   }
@@ -288,11 +291,12 @@ void oneHourDrive(const Options& o) {
   GeoreferenceResult r;
   const double s = best(o.repeat, [&] { r = georeference(in, p); });
   const auto& t = r.seconds;
-  std::printf("| - | pipeline without map, one-hour drive (%zu poses, %zu fixes) | 2000 (%zu "
-              "tetrahedra) | %.3f s | | interpolation %.3f, alignment %.3f, control points %.3f, "
-              "triangulation %.3f, trajectory %.3f s |\n",
-              r.poses.size(), r.gnss.points.size(), r.sheet->numTetrahedra(), s, t.interpolation,
-              t.alignment, t.control_points, t.triangulation, t.trajectory_warp);
+  std::printf(
+      "| - | pipeline without map, one-hour drive (%zu poses, %zu fixes) | 2000 (%zu "
+      "tetrahedra) | %.3f s | | interpolation %.3f, alignment %.3f, control points %.3f, "
+      "triangulation %.3f, trajectory %.3f s |\n",
+      r.poses.size(), r.gnss.points.size(), r.sheet->numTetrahedra(), s, t.interpolation,
+      t.alignment, t.control_points, t.triangulation, t.trajectory_warp);
 }
 
 }  // namespace

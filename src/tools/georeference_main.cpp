@@ -15,12 +15,12 @@
 #include "flexcloud/cloud_warp.h"
 #include "flexcloud/io/config.h"
 #include "flexcloud/io/map_stream.h"
-#include "flexcloud/io/pcd_header.h"
-#include "flexcloud/io/pcd_stream.h"
-#include "flexcloud/io/outputs.h"
-#include "flexcloud/io/pcd_io.h"
-#include "flexcloud/io/text_io.h"
 #include "flexcloud/io/memory.h"
+#include "flexcloud/io/outputs.h"
+#include "flexcloud/io/pcd_header.h"
+#include "flexcloud/io/pcd_io.h"
+#include "flexcloud/io/pcd_stream.h"
+#include "flexcloud/io/text_io.h"
 #include "flexcloud/ros/bag_input.h"
 #include "flexcloud/ros/node_params.h"
 
@@ -109,7 +109,8 @@ Options parseOptions(int argc, char** argv) {
     } else if (f == "--set") {
       const std::string kv = a.text(f);
       const auto eq = kv.find('=');
-      if (eq == std::string::npos || eq == 0) throw UsageError("--set: '" + kv + "' is not KEY=VALUE");
+      if (eq == std::string::npos || eq == 0)
+        throw UsageError("--set: '" + kv + "' is not KEY=VALUE");
       o.sets.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
     } else if (f == "--truth") {
       o.truth = a.text(f);

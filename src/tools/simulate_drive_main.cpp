@@ -15,9 +15,9 @@
 
 #include "cli.h"
 #include "flexcloud/io/atomic_file.h"
-#include "flexcloud/param_table.h"
 #include "flexcloud/io/pcd_io.h"
 #include "flexcloud/io/text_io.h"
+#include "flexcloud/param_table.h"
 #include "flexcloud/ros/conversions.h"
 #include "flexcloud/sim/sim_cloud.h"
 
@@ -184,9 +184,8 @@ std::string truthYaml(const sim::SimDrive& d) {
        "# ENU frame of this datum.\n";
   s << "datum:\n  latitude: " << d.datum.lat << "\n  longitude: " << d.datum.lon
     << "\n  altitude: " << d.datum.alt << "\n";
-  s << "route: " << (p.loop ? "loop" : "open") << "\nlength: " << p.length
-    << "\nseed: " << p.seed << "\nclock_offset: " << p.clock_offset
-    << "\nmap_points: " << p.map_points << "\n";
+  s << "route: " << (p.loop ? "loop" : "open") << "\nlength: " << p.length << "\nseed: " << p.seed
+    << "\nclock_offset: " << p.clock_offset << "\nmap_points: " << p.map_points << "\n";
   return s.str();
 }
 
@@ -202,9 +201,9 @@ int run(int argc, char** argv) {
   writeTextFile(o.out + "/slam_trajectory.txt", formatTum(d.slam));
   writeTextFile(o.out + "/truth_trajectory.txt", formatTum(d.truth));
   writeTextFile(o.out + "/truth.yaml", truthYaml(d));
-  std::cout << "simulate_drive: " << (o.sim.loop ? "loop" : "open") << " route of "
-            << o.sim.length << " m, " << d.slam.size() << " poses, " << d.fixes.size()
-            << " fixes, " << d.map.slam.size() << " map points -> " << o.out << "\n";
+  std::cout << "simulate_drive: " << (o.sim.loop ? "loop" : "open") << " route of " << o.sim.length
+            << " m, " << d.slam.size() << " poses, " << d.fixes.size() << " fixes, "
+            << d.map.slam.size() << " map points -> " << o.out << "\n";
   return 0;
 }
 

@@ -28,8 +28,10 @@ struct Published {
 };
 
 // The published method on this drive (all 2386 poses; ../shared/data/a2rl/README.md).
-constexpr Published kPublished[] = {
-    {10, 2.84, 2.36, 17.61}, {50, 0.87, 2.09, 17.04}, {100, 0.39, 0.90, 10.87}, {200, 0.23, 0.41, 7.44}};
+constexpr Published kPublished[] = {{10, 2.84, 2.36, 17.61},
+                                    {50, 0.87, 2.09, 17.04},
+                                    {100, 0.39, 0.90, 10.87},
+                                    {200, 0.23, 0.41, 7.44}};
 
 TEST(A2rl, BeatsThePublishedMethodAtEveryControlPointCount) {
   const std::string dir = findData();
@@ -43,8 +45,9 @@ TEST(A2rl, BeatsThePublishedMethodAtEveryControlPointCount) {
     p.control_points = pub.control_points;
     const GeoreferenceResult r = georeference(in, p);
     const ErrorStats& m = r.metrics_rubbersheet;
-    std::printf("a2rl %3d control points: MAE %.3f STD %.3f MAX %.3f m (published %.2f %.2f %.2f)\n",
-                pub.control_points, m.mae, m.std, m.max, pub.mae, pub.std, pub.max);
+    std::printf(
+        "a2rl %3d control points: MAE %.3f STD %.3f MAX %.3f m (published %.2f %.2f %.2f)\n",
+        pub.control_points, m.mae, m.std, m.max, pub.mae, pub.std, pub.max);
     EXPECT_EQ(r.control_points.points.size(), static_cast<std::size_t>(pub.control_points));
     EXPECT_LE(m.mae, pub.mae) << pub.control_points;
     EXPECT_LE(m.std, pub.std) << pub.control_points;

@@ -160,8 +160,9 @@ TEST(BadInput, LapsRevisitTheSamePlace) {
   const sim::SimDrive d = sim::simulateDrive(sp);
   const GeoreferenceResult r = georeference(inputOf(d), atSimDatum(d));
   const ErrorStats e = mapError(d, r);
-  std::printf("3 loop-closed laps: map RMSE %.3f m, MAX %.3f m; %zu revisit pairs, %zu conflicting\n",
-              e.rmse, e.max, r.revisits.pairs, r.revisits.conflicting);
+  std::printf(
+      "3 loop-closed laps: map RMSE %.3f m, MAX %.3f m; %zu revisit pairs, %zu conflicting\n",
+      e.rmse, e.max, r.revisits.pairs, r.revisits.conflicting);
   EXPECT_LE(e.rmse, 0.25);
   EXPECT_LT(r.metrics_rubbersheet.max, 0.3);
   EXPECT_GT(r.revisits.pairs, 50u);  // the laps do revisit (111 with g++, 99 with clang)
@@ -179,13 +180,14 @@ TEST(BadInput, LapsTheSlamNeverClosedAreFlagged) {
   const sim::SimDrive d = sim::simulateDrive(sp);
   const GeoreferenceResult r = georeference(inputOf(d), atSimDatum(d));
   pcl::PCLPointCloud2 map = sim::slamCloud(d.map);
-  const ErrorStats rigid = compareClouds(map, sim::truthCloud(d.map), [&](const Eigen::Vector3d& x) {
-    return Eigen::Vector3d(r.T_enu_map * x);
-  });
+  const ErrorStats rigid =
+      compareClouds(map, sim::truthCloud(d.map),
+                    [&](const Eigen::Vector3d& x) { return Eigen::Vector3d(r.T_enu_map * x); });
   const ErrorStats e = mapError(d, r);
-  std::printf("3 unclosed laps: map RMSE %.3f m (rigid only %.3f m); %zu of %zu revisit pairs "
-              "conflict, by up to %.2f m\n",
-              e.rmse, rigid.rmse, r.revisits.conflicting, r.revisits.pairs, r.revisits.worst);
+  std::printf(
+      "3 unclosed laps: map RMSE %.3f m (rigid only %.3f m); %zu of %zu revisit pairs "
+      "conflict, by up to %.2f m\n",
+      e.rmse, rigid.rmse, r.revisits.conflicting, r.revisits.pairs, r.revisits.worst);
   EXPECT_TRUE(std::isfinite(e.rmse));
   EXPECT_GT(r.revisits.conflicting, 20u);
   EXPECT_GT(r.revisits.worst, 1.0);

@@ -1,8 +1,8 @@
 // The bag input path with bags written here through rosbag: topic choice, the three pose types,
 // and corrupt messages.
 #include <gtest/gtest.h>
-#include <rosbag/bag.h>
 #include <ros/time.h>
+#include <rosbag/bag.h>
 
 #include <filesystem>
 #include <fstream>
@@ -28,7 +28,8 @@ const sim::SimDrive& drive() {
 }
 
 std::string bagPath(const std::string& name) {
-  return (fs::path(::testing::TempDir()) / (name + "_" + std::to_string(::getpid()) + ".bag")).string();
+  return (fs::path(::testing::TempDir()) / (name + "_" + std::to_string(::getpid()) + ".bag"))
+      .string();
 }
 
 void writeFixes(rosbag::Bag& bag, const std::string& topic) {
@@ -57,7 +58,8 @@ TEST(BagInput, SeveralCandidateTopicsAskForAChoice) {
   }
   const std::string e = errorOf(path);
   EXPECT_NE(e.find("several GNSS fix topics (/gnss/fix, /gps/fix); choose one with --fix-topic"),
-            std::string::npos) << e;
+            std::string::npos)
+      << e;
   BagTopics topics;
   topics.fix = "gps/fix";  // relative names are taken as absolute
   DriveCollector c;
@@ -83,7 +85,8 @@ TEST(BagInput, PoseStampedAndTheLastPathAreRead) {
     // Two paths: an early partial one and the final optimized one, which must win.
     Trajectory half(drive().slam.begin(), drive().slam.begin() + 10);
     b.write("/slam/path", ros_conv::toTime(half.back().stamp), ros_conv::toPath(half, "map"));
-    b.write("/slam/path", ros_conv::toTime(drive().slam.back().stamp), ros_conv::toPath(drive().slam, "map"));
+    b.write("/slam/path", ros_conv::toTime(drive().slam.back().stamp),
+            ros_conv::toPath(drive().slam, "map"));
   }
   DriveCollector ca, cb;
   EXPECT_EQ(readBag(pose_bag, {}, ca).odom_type, "geometry_msgs/PoseStamped");
@@ -95,7 +98,8 @@ TEST(BagInput, PoseStampedAndTheLastPathAreRead) {
 
 TEST(BagInput, AForgedVectorLengthIsAnErrorNotAnAllocation) {
   const std::string path = bagPath("forged");
-  nav_msgs::Path msg = ros_conv::toPath(Trajectory(drive().slam.begin(), drive().slam.begin() + 3), "map");
+  nav_msgs::Path msg =
+      ros_conv::toPath(Trajectory(drive().slam.begin(), drive().slam.begin() + 3), "map");
   {
     rosbag::Bag bag(path, rosbag::bagmode::Write);
     writeFixes(bag, "/fix");

@@ -24,9 +24,8 @@ MapErrors run(const sim::SimParams& sp, int control_points) {
   const auto& r = e.result;
   pcl::PCLPointCloud2 map = sim::slamCloud(d.map);
   const pcl::PCLPointCloud2 truth = sim::truthCloud(d.map);
-  e.rigid = compareClouds(map, truth, [&](const Eigen::Vector3d& x) {
-    return Eigen::Vector3d(r.T_enu_map * x);
-  });
+  e.rigid = compareClouds(
+      map, truth, [&](const Eigen::Vector3d& x) { return Eigen::Vector3d(r.T_enu_map * x); });
   const WarpStats w = warpCloud(map, *r.sheet, 2);
   EXPECT_EQ(w.points, sp.map_points);
   e.sheet = compareClouds(map, truth, [](const Eigen::Vector3d& x) { return x; });
@@ -50,9 +49,10 @@ TEST(SimulatedDrive, LoopClosedLoopMapWithin25cmOfTheTruth) {
     EXPECT_LT(e.sheet.rmse, e.rigid.rmse) << "seed " << seed;
     EXPECT_LT(e.trajectory.rmse, 0.06) << "seed " << seed;
     EXPECT_GT(e.rigid.rmse, 1.0) << "the simulated drift should matter, seed " << seed;
-    std::printf("loop seed %lu: map RMSE rigid %.3f -> rubber sheet %.3f m (max %.3f), trajectory %.3f m\n",
-                static_cast<unsigned long>(seed), e.rigid.rmse, e.sheet.rmse, e.sheet.max,
-                e.trajectory.rmse);
+    std::printf(
+        "loop seed %lu: map RMSE rigid %.3f -> rubber sheet %.3f m (max %.3f), trajectory %.3f m\n",
+        static_cast<unsigned long>(seed), e.rigid.rmse, e.sheet.rmse, e.sheet.max,
+        e.trajectory.rmse);
   }
 }
 
@@ -66,9 +66,10 @@ TEST(SimulatedDrive, OpenRouteMapWithin1_5mOfTheTruth) {
     EXPECT_LE(e.sheet.rmse, 1.5) << "seed " << seed;
     EXPECT_LT(e.sheet.rmse, e.rigid.rmse) << "seed " << seed;
     EXPECT_LT(e.trajectory.rmse, 0.1) << "seed " << seed;
-    std::printf("open seed %lu: map RMSE rigid %.3f -> rubber sheet %.3f m (max %.3f), trajectory %.3f m\n",
-                static_cast<unsigned long>(seed), e.rigid.rmse, e.sheet.rmse, e.sheet.max,
-                e.trajectory.rmse);
+    std::printf(
+        "open seed %lu: map RMSE rigid %.3f -> rubber sheet %.3f m (max %.3f), trajectory %.3f m\n",
+        static_cast<unsigned long>(seed), e.rigid.rmse, e.sheet.rmse, e.sheet.max,
+        e.trajectory.rmse);
   }
 }
 
@@ -119,8 +120,10 @@ TEST(SimulatedDrive, OutagesNoFixStopsAndClockOffsetAreHandled) {
   // Without the clock offset correction the same drive is visibly worse.
   const ErrorStats skewed = truthError(georeference(in, Params{}));
   EXPECT_GT(skewed.rmse, 2.0 * good.rmse);
-  std::printf("outage/stop/offset drive: trajectory vs truth RMSE %.3f m (max %.3f), %.3f m "
-              "without the offset\n", good.rmse, good.max, skewed.rmse);
+  std::printf(
+      "outage/stop/offset drive: trajectory vs truth RMSE %.3f m (max %.3f), %.3f m "
+      "without the offset\n",
+      good.rmse, good.max, skewed.rmse);
 }
 
 }  // namespace

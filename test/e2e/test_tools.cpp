@@ -47,7 +47,7 @@ fs::path Tools::dir_;
 TEST_F(Tools, BagWithMapGivesEveryOutputAndAccurateMap) {
   const std::string o = out("bag");
   const Result r = sh(bin("georeference") + " --bag " + sim() + "/drive.bag --map " + sim() +
-                   "/map.pcd --truth " + sim() + "/truth_map.pcd --out " + o + datum());
+                      "/map.pcd --truth " + sim() + "/truth_map.pcd --out " + o + datum());
   ASSERT_EQ(r.code, 0) << r.output;
   for (const char* f : {"map_georeferenced.pcd", "trajectory_gnss.txt", "trajectory_slam.txt",
                         "trajectory_aligned.txt", "trajectory_rubbersheet.txt",
@@ -81,8 +81,11 @@ TEST_F(Tools, BagWithMapGivesEveryOutputAndAccurateMap) {
 TEST_F(Tools, TextFilesGiveTheSameGeoreferencing) {
   const std::string a = out("text"), b = out("bag2");
   ASSERT_EQ(sh(bin("georeference") + " --gnss " + sim() + "/gnss.txt --poses " + sim() +
-               "/slam_trajectory.txt -q --out " + a + datum()).code, 0);
-  ASSERT_EQ(sh(bin("georeference") + " --bag " + sim() + "/drive.bag -q --out " + b + datum()).code, 0);
+               "/slam_trajectory.txt -q --out " + a + datum())
+                .code,
+            0);
+  ASSERT_EQ(sh(bin("georeference") + " --bag " + sim() + "/drive.bag -q --out " + b + datum()).code,
+            0);
   const auto ja = readJson(a + "/report.json"), jb = readJson(b + "/report.json");
   // The text file rounds the fixes to 1e-10 deg (1 cm) and 0.1 mm: results agree to that.
   EXPECT_NEAR(ja["metrics"]["rubbersheet"]["mae"].get<double>(),
@@ -97,12 +100,16 @@ TEST_F(Tools, ConfigFileAndFlagsSetTheParameters) {
   const std::string cfg = out("cfg.yaml");
   std::ofstream(cfg) << "control_points: 50\nstddev_threshold: 0.2\n";
   const std::string o = out("cfg");
-  ASSERT_EQ(sh(bin("georeference") + " --bag " + sim() + "/drive.bag -q --config " + cfg +
-               " --out " + o).code, 0);
+  ASSERT_EQ(
+      sh(bin("georeference") + " --bag " + sim() + "/drive.bag -q --config " + cfg + " --out " + o)
+          .code,
+      0);
   EXPECT_EQ(readJson(o + "/report.json")["counts"]["control_points"], 50);
   EXPECT_DOUBLE_EQ(readJson(o + "/report.json")["params"]["stddev_threshold"].get<double>(), 0.2);
   ASSERT_EQ(sh(bin("georeference") + " --bag " + sim() + "/drive.bag -q --config " + cfg +
-               " --control-points 30 --out " + o).code, 0);  // the flag wins over the file
+               " --control-points 30 --out " + o)
+                .code,
+            0);  // the flag wins over the file
   EXPECT_EQ(readJson(o + "/report.json")["counts"]["control_points"], 30);
 }
 

@@ -19,8 +19,7 @@ namespace flexcloud::test {
 using Cloud = sensor_msgs::PointCloud2;
 
 /// Calls /NODE/georeference (waiting for the service first).
-inline flexcloud::Georeference::Response call(int control_points = 0,
-                                              double stddev_threshold = 0.0,
+inline flexcloud::Georeference::Response call(int control_points = 0, double stddev_threshold = 0.0,
                                               const std::string& node = "/flexcloud") {
   flexcloud::Georeference srv;
   srv.request.control_points = control_points;
@@ -41,8 +40,7 @@ Srv callService(const std::string& name, Srv srv = {}) {
 /// The first message on `topic` (latched or new) that `pred` accepts, within `timeout` s.
 template <typename M>
 boost::shared_ptr<const M> messageWhere(const std::string& topic,
-                                        const std::function<bool(const M&)>& pred,
-                                        double timeout) {
+                                        const std::function<bool(const M&)>& pred, double timeout) {
   ros::NodeHandle nh;
   const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout);
   while (ros::ok() && ros::WallTime::now() < end) {
@@ -63,8 +61,8 @@ inline flexcloud::ResultConstPtr resultWhere(const ros::Time& after,
                                              const std::function<bool(const Result&)>& pred,
                                              double timeout = 20.0) {
   return messageWhere<Result>(
-      "/flexcloud/result",
-      [&](const Result& m) { return m.header.stamp >= after && pred(m); }, timeout);
+      "/flexcloud/result", [&](const Result& m) { return m.header.stamp >= after && pred(m); },
+      timeout);
 }
 
 /// The value of a parameter in a ~result message, "" when it is not listed.

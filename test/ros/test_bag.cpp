@@ -29,7 +29,8 @@ TEST(Bag, ReadsTheBagGeoreferencesAndSaves) {
   std::printf("bag: map vs truth RMSE %.3f m\n", e.rmse);
   EXPECT_LE(e.rmse, 0.25);
 
-  const std::string out = (fs::temp_directory_path() / ("flexcloud_save_" + std::to_string(getpid()))).string();
+  const std::string out =
+      (fs::temp_directory_path() / ("flexcloud_save_" + std::to_string(getpid()))).string();
   flexcloud::Save save;
   save.request.directory = out;
   ASSERT_TRUE(ros::service::call("/flexcloud/save", save));

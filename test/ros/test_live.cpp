@@ -42,7 +42,8 @@ class Live : public ::testing::Test {
     ros::Publisher& odom = odom_pub_;
     const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(20.0);
     while ((fix.getNumSubscribers() == 0 || odom.getNumSubscribers() == 0 ||
-            map_pub_.getNumSubscribers() == 0) && ros::WallTime::now() < end) {
+            map_pub_.getNumSubscribers() == 0) &&
+           ros::WallTime::now() < end) {
       ros::WallDuration(0.05).sleep();
     }
     ASSERT_GT(fix.getNumSubscribers(), 0u);
@@ -311,7 +312,8 @@ TEST_F(Live, SaveWithARelativeFolderNamesTheAbsolutePath) {
 TEST_F(Live, LoadMapReplacesTheMapToWarp) {
   publishDrive();
   ASSERT_TRUE(callWhenComplete().success);
-  const fs::path file = fs::temp_directory_path() / ("flexcloud_load_" + std::to_string(::getpid()) + ".pcd");
+  const fs::path file =
+      fs::temp_directory_path() / ("flexcloud_load_" + std::to_string(::getpid()) + ".pcd");
   const pcl::PCLPointCloud2 full = sim::slamCloud(drive_->map);
   pcl::PCLPointCloud2 half = full;
   half.width = full.width / 2;

@@ -24,9 +24,9 @@ TEST(Params, WrongValuesAreNamedAndTheNodeDoesNotStart) {
     FAIL() << "bad parameters were accepted";
   } catch (const Error& e) {
     const std::string what = e.what();
-    for (const char* says : {"control_points: 'many' is not a number", "stddev_threshold -1",
-                             "interpolation: 'cubic'", "odom_type 'imu'",
-                             "give all three or none", "excluded_ranges: expected a list"}) {
+    for (const char* says :
+         {"control_points: 'many' is not a number", "stddev_threshold -1", "interpolation: 'cubic'",
+          "odom_type 'imu'", "give all three or none", "excluded_ranges: expected a list"}) {
       EXPECT_NE(what.find(says), std::string::npos) << says << " in: " << what;
     }
     EXPECT_EQ(what.find('\n'), std::string::npos);

@@ -67,7 +67,8 @@ TEST(Stress, AnHourAt100HzWithCallsReconfiguresAndNewMaps) {
     // A persistent connection, as a client calling this often would hold: no master lookup and
     // no new connection per call. A call it cannot complete means the node failed.
     ros::NodeHandle h;
-    ros::ServiceClient client = h.serviceClient<flexcloud::Georeference>("/flexcloud/georeference", true);
+    ros::ServiceClient client =
+        h.serviceClient<flexcloud::Georeference>("/flexcloud/georeference", true);
     while (!done) {
       flexcloud::Georeference srv;
       if (!client.call(srv)) {
@@ -85,7 +86,7 @@ TEST(Stress, AnHourAt100HzWithCallsReconfiguresAndNewMaps) {
     }
   };
   std::thread caller_a(callLoop), caller_b(callLoop);  // two callers: calls overlap runs
-  std::thread tuner([&] {  // reconfigures and new maps all the while
+  std::thread tuner([&] {                              // reconfigures and new maps all the while
     dynamic_reconfigure::Client<flexcloud::GeoreferenceConfig> client("/flexcloud");
     flexcloud::GeoreferenceConfig config;
     int k = 0;
@@ -112,11 +113,13 @@ TEST(Stress, AnHourAt100HzWithCallsReconfiguresAndNewMaps) {
   caller_a.join();
   caller_b.join();
   tuner.join();
-  std::printf("stress: %zu poses and fixes sent, %d calls (%d refused as busy, %d succeeded, %d "
-              "not completed)\n", sent, calls.load(), refused.load(), succeeded.load(), dropped.load());
+  std::printf(
+      "stress: %zu poses and fixes sent, %d calls (%d refused as busy, %d succeeded, %d "
+      "not completed)\n",
+      sent, calls.load(), refused.load(), succeeded.load(), dropped.load());
   EXPECT_EQ(sent, d.slam.size());  // the whole hour went through
   EXPECT_GT(calls.load(), 10);
-  EXPECT_GT(refused.load(), 0);     // overlapping calls were refused, not queued
+  EXPECT_GT(refused.load(), 0);  // overlapping calls were refused, not queued
   EXPECT_GT(succeeded.load(), 0);
   EXPECT_EQ(dropped.load(), 0) << "calls the node did not complete";
   // The node still answers, every count adds up, memory stayed bounded.

@@ -1,9 +1,8 @@
 // The parameter table is the one description of every parameter: cfg/Georeference.cfg (through
 // the config class dynamic_reconfigure generates from it) and config/georeference.yaml must agree
 // with it. No ROS master needed.
-#include <gtest/gtest.h>
-
 #include <dynamic_reconfigure/Config.h>
+#include <gtest/gtest.h>
 
 #include <fstream>
 #include <regex>

@@ -68,9 +68,9 @@ TEST(Umeyama, StraightLineTakesTheSmallestRotation) {
 
 TEST(Umeyama, TooFewOrCoincidentPointsAreAnError) {
   EXPECT_THROW(umeyama({{0, 0, 0}, {1, 0, 0}}, {{0, 0, 0}, {1, 0, 0}}, {}, false), Error);
-  EXPECT_THROW(umeyama({{1, 1, 1}, {1, 1, 1}, {1, 1, 1}}, {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}}, {},
-                       false),
-               Error);
+  EXPECT_THROW(
+      umeyama({{1, 1, 1}, {1, 1, 1}, {1, 1, 1}}, {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}}, {}, false),
+      Error);
 }
 
 }  // namespace

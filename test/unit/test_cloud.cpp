@@ -29,10 +29,14 @@ pcl::PCLPointCloud2 richCloud(std::uint32_t rows, std::uint32_t cols, bool doubl
   pcl::PCLPointCloud2 c;
   const std::uint32_t s = double_xyz ? 8 : 4;
   const std::uint8_t t = double_xyz ? F::FLOAT64 : F::FLOAT32;
-  c.fields = {field("time", 0, F::FLOAT64),      field("x", 8, t),
-              field("y", 8 + s, t),              field("z", 8 + 2 * s, t),
-              field("rgb", 8 + 3 * s, F::FLOAT32), field("intensity", 12 + 3 * s, F::FLOAT32),
-              field("ring", 16 + 3 * s, F::UINT16), field("label", 20 + 3 * s, F::UINT32)};
+  c.fields = {field("time", 0, F::FLOAT64),
+              field("x", 8, t),
+              field("y", 8 + s, t),
+              field("z", 8 + 2 * s, t),
+              field("rgb", 8 + 3 * s, F::FLOAT32),
+              field("intensity", 12 + 3 * s, F::FLOAT32),
+              field("ring", 16 + 3 * s, F::UINT16),
+              field("label", 20 + 3 * s, F::UINT32)};
   c.point_step = 24 + 3 * s;
   c.height = rows;
   c.width = cols;
@@ -126,7 +130,10 @@ TEST(CloudWarp, PointsBeyondTheCuboidAreMovedRigidlyAndCounted) {
   EXPECT_LT((l.get(c.data.data()) - Eigen::Vector3d(5001.0, 2.0, 3.0)).norm(), 1e-9);
   // Inside the hat of the bump: its apex weight at height h above the centre is 1 - h / 200.
   const double h = 0.0005;
-  EXPECT_LT((l.get(c.data.data() + l.point_step) - Eigen::Vector3d(1.0, 2.0, 3.0 + h + 1.0 - h / 200.0)).norm(), 1e-9);
+  EXPECT_LT(
+      (l.get(c.data.data() + l.point_step) - Eigen::Vector3d(1.0, 2.0, 3.0 + h + 1.0 - h / 200.0))
+          .norm(),
+      1e-9);
 }
 
 TEST(CloudWarp, BadLayoutsAreErrors) {
@@ -145,7 +152,9 @@ TEST(PcdIo, AllEncodingsRoundTripWithEveryField) {
   const pcl::PCLPointCloud2 c = richCloud(10, 30, false);
   pcl::PCDWriter w;
   const std::string dir = ::testing::TempDir();
-  ASSERT_EQ(w.writeASCII(dir + "a.pcd", c, Eigen::Vector4f::Zero(), Eigen::Quaternionf::Identity(), 10), 0);
+  ASSERT_EQ(
+      w.writeASCII(dir + "a.pcd", c, Eigen::Vector4f::Zero(), Eigen::Quaternionf::Identity(), 10),
+      0);
   ASSERT_EQ(w.writeBinaryCompressed(dir + "c.pcd", c), 0);
   writePcdBinary(dir + "b.pcd", c);
   for (const char* name : {"b.pcd", "c.pcd"}) {
@@ -157,7 +166,10 @@ TEST(PcdIo, AllEncodingsRoundTripWithEveryField) {
   const pcl::PCLPointCloud2 a = readPcd(dir + "a.pcd");  // ascii: values, not bytes
   const XyzLayout la = XyzLayout::of(a, "a"), lc = XyzLayout::of(c, "c");
   for (std::size_t i : {0u, 5u, 299u}) {
-    EXPECT_LT((la.get(a.data.data() + i * la.point_step) - lc.get(c.data.data() + i * lc.point_step)).norm(), 1e-3);
+    EXPECT_LT(
+        (la.get(a.data.data() + i * la.point_step) - lc.get(c.data.data() + i * lc.point_step))
+            .norm(),
+        1e-3);
   }
 }
 

@@ -94,7 +94,7 @@ TEST(ControlPoints, RefinementPicksTheWorstPosePerStretch) {
   dev[900] = 0.4;  // last stretch
   std::vector<double> arc;
   for (const auto& pose : d.poses) arc.push_back(pose.position.x());  // monotonic here
-  dev[5] = 0.9;   // x = 0.5: too close to the control point at x = 0
+  dev[5] = 0.9;    // x = 0.5: too close to the control point at x = 0
   dev[450] = 0.8;  // x = 40, in the standstill, far enough from both neighbours
   dev[760] = 0.7;  // x = 46: 0.7 m from the control point at 46.7, too close
   const auto picks = pickRefinements(sel, dev, arc, 2.0, 5, 1e-3);

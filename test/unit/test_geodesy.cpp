@@ -27,9 +27,9 @@ TEST(Geodesy, KnownDistancesAtTheEquator) {
 TEST(Geodesy, RoundTripAtSeveralLatitudes) {
   for (double lat : {-89.9, -60.0, -12.5, 0.0, 24.4672, 48.262, 70.0, 89.9}) {
     const EnuFrame enu({lat, 54.6, 5.0});
-    for (const Eigen::Vector3d& p : {Eigen::Vector3d(1234.5, -2345.25, 12.0),
-                                    Eigen::Vector3d(-20000.0, 15000.0, -50.0),
-                                    Eigen::Vector3d(0.001, 0.002, 0.003)}) {
+    for (const Eigen::Vector3d& p :
+         {Eigen::Vector3d(1234.5, -2345.25, 12.0), Eigen::Vector3d(-20000.0, 15000.0, -50.0),
+          Eigen::Vector3d(0.001, 0.002, 0.003)}) {
       const Datum g = enu.toGeodetic(p);
       EXPECT_LT((enu.toEnu(g.lat, g.lon, g.alt) - p).norm(), 1e-8) << "lat " << lat;
     }

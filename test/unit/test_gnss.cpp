@@ -25,7 +25,7 @@ std::vector<RawFix> drive() {
 
 TEST(Gnss, DatumIsTheEarliestValidFix) {
   auto v = drive();
-  std::swap(v[0], v[5]);               // out of order
+  std::swap(v[0], v[5]);                              // out of order
   v.insert(v.begin(), fix(99.0, 0, 0, 0.02, false));  // NO_FIX earlier than all
   const PreparedGnss g = prepareGeodeticGnss(v, Params{});
   ASSERT_TRUE(g.datum);
@@ -40,12 +40,12 @@ TEST(Gnss, DatumIsTheEarliestValidFix) {
 
 TEST(Gnss, EveryDroppedFixIsCountedByReason) {
   auto v = drive();
-  v.push_back(fix(120.0, std::nan(""), 11.0));                 // invalid
+  v.push_back(fix(120.0, std::nan(""), 11.0));  // invalid
   v.push_back(fix(121.0, 48.01, std::numeric_limits<double>::infinity()));
-  v.push_back(fix(122.0, 48.0, 11.0, std::nan("")));           // unknown covariance
-  v.push_back(fix(105.0, 48.0005, 11.0));                      // duplicate stamp
-  v[10].fix.lat += 0.01;                                       // a 1.1 km jump for one fix
-  v.push_back(fix(123.0, 48.0, 11.0, -1.0));                   // negative std: invalid
+  v.push_back(fix(122.0, 48.0, 11.0, std::nan("")));  // unknown covariance
+  v.push_back(fix(105.0, 48.0005, 11.0));             // duplicate stamp
+  v[10].fix.lat += 0.01;                              // a 1.1 km jump for one fix
+  v.push_back(fix(123.0, 48.0, 11.0, -1.0));          // negative std: invalid
   const PreparedGnss g = prepareGeodeticGnss(v, Params{});
   EXPECT_EQ(g.received, 25u);
   EXPECT_EQ(g.dropped.invalid, 3u);
@@ -58,7 +58,7 @@ TEST(Gnss, EveryDroppedFixIsCountedByReason) {
 TEST(Gnss, ASustainedJumpAwayAndBackLosesExactlyTheFixesInBetween) {
   std::vector<RawFix> v;
   for (int k = 0; k < 200; ++k) v.push_back(fix(100.0 + 0.2 * k, 48.0 + 0.18e-4 * k, 11.0));
-  for (int k = 60; k < 90; ++k) v[k].fix.lon += 0.005;  // 6 s 370 m east, then back
+  for (int k = 60; k < 90; ++k) v[k].fix.lon += 0.005;    // 6 s 370 m east, then back
   for (int k = 150; k < 151; ++k) v[k].fix.lat -= 0.004;  // and one fix 440 m south
   const PreparedGnss g = prepareGeodeticGnss(v, Params{});
   EXPECT_EQ(g.dropped.outlier, 31u);

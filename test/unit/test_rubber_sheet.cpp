@@ -141,7 +141,8 @@ TEST(RubberSheet, FastPathEqualsCgalLocation) {
 TEST(RubberSheet, InputFrameIsFoldedIn) {
   const Sheet s = makeSheet(100, 10);
   Eigen::Isometry3d input_to_source = Eigen::Isometry3d::Identity();
-  input_to_source.linear() = Eigen::AngleAxisd(0.8, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  input_to_source.linear() =
+      Eigen::AngleAxisd(0.8, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
   input_to_source.translation() = Eigen::Vector3d(-300.0, 40.0, 7.0);
   const RubberSheet rs(s.src, s.dst, identityAffine(), input_to_source);
   const Eigen::Isometry3d back = input_to_source.inverse();

@@ -43,8 +43,8 @@ TEST(TextIo, ErrorsNameTheFileAndLine) {
 }
 
 TEST(TextIo, GnssWithoutStdDevHasUnknownCovariance) {
-  const auto g = parseGeodeticGnss("10 48.1 11.2 500\n11 48.1 11.2 500 0.1 0.2 0.3\n", "g",
-                                   StampUnit::kAuto);
+  const auto g =
+      parseGeodeticGnss("10 48.1 11.2 500\n11 48.1 11.2 500 0.1 0.2 0.3\n", "g", StampUnit::kAuto);
   EXPECT_TRUE(g[0].fix.std_enu.hasNaN());
   EXPECT_DOUBLE_EQ(g[1].fix.std_enu.z(), 0.3);
 }

@@ -58,17 +58,18 @@ TEST(WarpEquivalence, FastPathMatchesCgalOnMapFacesEdgesVerticesAndOutside) {
   for (int cps : {200, 2000}) {
     const Case c = makeCase(cps, 100000);
     const RubberSheet& sheet = *c.result.sheet;
-    const Eigen::Isometry3d to_map = c.result.T_enu_map.inverse();  // sources are in the aligned frame
-    std::vector<Eigen::Vector3d> probes = c.drive.map.slam;         // the map, in scan order
+    const Eigen::Isometry3d to_map =
+        c.result.T_enu_map.inverse();                        // sources are in the aligned frame
+    std::vector<Eigen::Vector3d> probes = c.drive.map.slam;  // the map, in scan order
     std::mt19937 rng(3);
     std::uniform_real_distribution<double> u(0.0, 1.0);
     for (const auto& t : sheet.tetrahedra()) {
       const auto& s = sheet.sources();
       const Eigen::Vector3d a = s[t[0]], b = s[t[1]], d = s[t[2]];
-      probes.push_back(to_map * a);                                   // a vertex
-      probes.push_back(to_map * (0.5 * (a + b)));                     // an edge midpoint
+      probes.push_back(to_map * a);                // a vertex
+      probes.push_back(to_map * (0.5 * (a + b)));  // an edge midpoint
       const double x = 0.5 * u(rng), y = 0.5 * u(rng);
-      probes.push_back(to_map * (a + x * (b - a) + y * (d - a)));     // a point on a face
+      probes.push_back(to_map * (a + x * (b - a) + y * (d - a)));  // a point on a face
     }
     Eigen::Vector3d lo = c.result.cuboid_enu[0], hi = c.result.cuboid_enu[7];
     for (int i = 0; i < 20000; ++i) {  // anywhere in and around the cuboid
@@ -89,7 +90,8 @@ TEST(WarpEquivalence, FastPathMatchesCgalOnMapFacesEdgesVerticesAndOutside) {
     }
     EXPECT_LT(worst, 1e-6) << cps << " control points";
     // Points on the hull's faces may count as in or out; the two answers agree there.
-    EXPECT_NEAR(static_cast<double>(stats.outside), static_cast<double>(outside), 0.001 * probes.size());
+    EXPECT_NEAR(static_cast<double>(stats.outside), static_cast<double>(outside),
+                0.001 * probes.size());
   }
 }
 
@@ -118,10 +120,12 @@ TEST(WarpEquivalence, StreamedFileEqualsTheInMemoryWarp) {
     double worst = 0.0;
     for (std::size_t i = 0; i < a.points; ++i) {
       worst = std::max(worst, (a.get(cloud.data.data() + i * a.point_step) -
-                               b.get(streamed.data.data() + i * b.point_step)).norm());
+                               b.get(streamed.data.data() + i * b.point_step))
+                                  .norm());
       // every byte beyond x, y, z is the input's
       EXPECT_EQ(std::memcmp(streamed.data.data() + i * b.point_step + 12,
-                            original.data.data() + i * a.point_step + 12, a.point_step - 12), 0);
+                            original.data.data() + i * a.point_step + 12, a.point_step - 12),
+                0);
     }
     EXPECT_LT(worst, 1e-4) << (in_place ? "in place" : "pipeline");  // float32 rounding at most
     const ErrorStats direct = compareClouds(cloud, readPcd(dir + "/truth.pcd"),

@@ -12,9 +12,9 @@
 namespace flexcloud {
 
 struct MapStreamOptions {
-  int threads = 0;                  ///< warp threads; 0: all cores
+  int threads = 0;  ///< warp threads; 0: all cores
   std::size_t chunk_points = 1 << 20;
-  std::string truth;                ///< optional ground truth PCD: same points, same order
+  std::string truth;  ///< optional ground truth PCD: same points, same order
   Eigen::Isometry3d T_enu_map = Eigen::Isometry3d::Identity();  ///< for the rigid-only error
   /// Copy in the kernel and warp in place through memory maps where the filesystem can reserve
   /// the space; false: always read, warp and write through buffers.

@@ -1,6 +1,6 @@
 #pragma once
 // A strict reader of PCD headers. PCL's own reader trusts the header (a text file that starts
-// with '#' crashes it), so every file is checked here before PCL reads its body.
+// with '#' crashes it), so every file is checked here before its body is read.
 
 #include <cstdint>
 #include <string>
@@ -24,8 +24,8 @@ struct PcdHeader {
   std::size_t points = 0;
   std::size_t point_step = 0;  ///< packed size of one point (sum of size * count)
   Data data = Data::kBinary;
-  std::size_t data_offset = 0;  ///< byte where the body starts
-  std::size_t header_lines = 0; ///< lines before the body (for line numbers in body errors)
+  std::size_t data_offset = 0;   ///< byte where the body starts
+  std::size_t header_lines = 0;  ///< lines before the body (for line numbers in body errors)
   std::uint64_t file_size = 0;
 };
 

@@ -1,5 +1,6 @@
 #pragma once
-// PCD files through PCL, with errors that name the file and the problem.
+// PCD files in every encoding, read strictly by our own readers (PCL supplies the cloud type and
+// the LZF codec), with errors that name the file and the problem.
 
 #include <pcl/PCLPointCloud2.h>
 
@@ -8,9 +9,9 @@
 namespace flexcloud {
 
 /// Reads a PCD file (ascii, binary or binary_compressed) with all its fields, organized or not.
-/// The header is checked first (pcd_header.h); binary bodies are read by our own reader, ascii
-/// and compressed ones by PCL. Throws Error "FILE: ..." for a missing file, a file that is not
-/// PCD, a bad header or a body shorter than the header promises.
+/// The header is checked first (pcd_header.h), then the body by the reader of its encoding.
+/// Throws Error "FILE: ..." for a missing file, a file that is not PCD, a bad header, a value
+/// that is not a number of its field's type, or a body shorter than the header promises.
 pcl::PCLPointCloud2 readPcd(const std::string& path);
 
 /// Writes a binary PCD under a temporary name and renames it onto `path` when complete.

@@ -1,6 +1,6 @@
 #pragma once
 // Binary PCD bodies read and written in chunks with plain read()/write(): no memory map, no copy
-// beyond the caller's buffer, any size. ASCII and compressed files go through PCL (pcd_io.h).
+// beyond the caller's buffer, any size. ASCII and compressed files are read whole (pcd_io.h).
 
 #include <pcl/PCLPointCloud2.h>
 

@@ -10,7 +10,7 @@
 namespace flexcloud {
 
 enum class StampUnit {
-  kAuto,         ///< nanoseconds when every stamp is an integer and one exceeds 1e12
+  kAuto,  ///< nanoseconds when every stamp is an integer and one exceeds 1e12
   kSeconds,
   kNanoseconds,
 };

@@ -1,10 +1,10 @@
 #pragma once
 // Reading a drive from a rosbag through the same handlers the live node uses.
 
+#include <pcl/PCLPointCloud2.h>
+
 #include <functional>
 #include <string>
-
-#include <pcl/PCLPointCloud2.h>
 
 #include "flexcloud/ros/drive_collector.h"
 

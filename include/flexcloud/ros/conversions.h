@@ -1,14 +1,13 @@
 #pragma once
 // Every conversion between ROS messages and core types lives here.
 
+#include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/Transform.h>
 #include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
-#include <geometry_msgs/PoseStamped.h>
+#include <pcl/PCLPointCloud2.h>
 #include <sensor_msgs/NavSatFix.h>
 #include <sensor_msgs/PointCloud2.h>
-
-#include <pcl/PCLPointCloud2.h>
 
 #include "flexcloud/Deviation.h"
 #include "flexcloud/cloud_warp.h"

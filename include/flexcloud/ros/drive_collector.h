@@ -2,13 +2,13 @@
 // Collects the drive from ROS messages. Live subscribers and the bag reader call the same
 // handlers, so both inputs take one path into the core.
 
-#include <mutex>
-#include <string>
-
 #include <geometry_msgs/PoseStamped.h>
 #include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
 #include <sensor_msgs/NavSatFix.h>
+
+#include <mutex>
+#include <string>
 
 #include "flexcloud/georeference.h"
 

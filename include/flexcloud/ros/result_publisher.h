@@ -48,8 +48,8 @@ class ResultPublisher {
   void report(const flexcloud::Result& msg);
 
  private:
-  ros::Publisher map_, origin_, path_gnss_, path_slam_, path_aligned_, path_sheet_,
-      control_points_, tetrahedra_, deviation_, result_;
+  ros::Publisher map_, origin_, path_gnss_, path_slam_, path_aligned_, path_sheet_, control_points_,
+      tetrahedra_, deviation_, result_;
   tf2_ros::StaticTransformBroadcaster tf_;
 };
 

@@ -26,10 +26,10 @@ struct SimParams {
   bool close_each_lap = true;
   /// Scale of the route's hills; 0: a perfectly level road.
   double elevation = 1.0;
-  double speed = 12.0;     ///< m/s
-  double stop_duration = 0.0;  ///< s standing still halfway along the route
-  double odom_rate = 10.0;     ///< Hz
-  double gnss_rate = 5.0;      ///< Hz
+  double speed = 12.0;          ///< m/s
+  double stop_duration = 0.0;   ///< s standing still halfway along the route
+  double odom_rate = 10.0;      ///< Hz
+  double gnss_rate = 5.0;       ///< Hz
   double gnss_noise_h = 0.015;  ///< m, 1-sigma, east and north
   double gnss_noise_v = 0.03;   ///< m, 1-sigma, up
   /// Std-devs the receiver reports (covariance of the NavSatFix); <= 0: same as the noise.
@@ -56,7 +56,7 @@ struct SimParams {
   double start_stamp = 1700000000.0;  ///< s, SLAM clock at the first pose
 };
 
-/// Point cloud data in a neutral form; io/cloud_io builds PCD clouds from it.
+/// Point cloud data in a neutral form; sim/sim_cloud.h builds PCD clouds from it.
 struct SimMap {
   std::vector<Eigen::Vector3d> slam;   ///< SLAM map frame
   std::vector<Eigen::Vector3d> truth;  ///< true ENU of the datum, same order
