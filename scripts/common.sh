@@ -27,15 +27,17 @@ clean_ros_env() {
 # itself, and `rosrun` (which searches the package folder with `find -L`) would then meet a
 # file-system loop and every built executable twice.
 link_package() {
-  local ws="$1" view="$1/src/flexcloud" entry name
+  local view="$1/src/flexcloud" entry name
   [ -L "${view}" ] && rm -f "${view}"
   mkdir -p "${view}"
-  find "${view}" -mindepth 1 -maxdepth 1 -type l -delete
   for entry in "${FLEXCLOUD_ROOT}"/* "${FLEXCLOUD_ROOT}"/.clang-format; do
     name="$(basename "${entry}")"
     case "${name}" in out|.ws|.ws-*|.git) continue ;; esac
-    [ -e "${entry}" ] && ln -s "${entry}" "${view}/${name}"
+    # Idempotent, so that several scripts running at once (a launch and a service call) agree.
+    [ -e "${entry}" ] && [ "$(readlink "${view}/${name}")" != "${entry}" ] && \
+      { ln -sfn "${entry}" "${view}/${name}" 2>/dev/null || true; }
   done
+  find "${view}" -mindepth 1 -maxdepth 1 -xtype l -delete 2>/dev/null || true
 }
 
 # Makes the workspace (src/flexcloud: see link_package) and runs catkin_make in it.

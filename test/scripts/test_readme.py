@@ -89,7 +89,8 @@ class Readme(unittest.TestCase):
     def tearDownClass(cls):
         cls.xvfb.terminate()
         cls.xvfb.wait()
-        shutil.rmtree(cls.tmp, ignore_errors=True)
+        if not os.environ.get("FLEXCLOUD_KEEP_TMP"):
+            shutil.rmtree(cls.tmp, ignore_errors=True)
 
     # ---- running commands -------------------------------------------------------------------
 
@@ -108,10 +109,10 @@ class Readme(unittest.TestCase):
 
     def start_typed(self, command, env=None, cwd=None):
         """A long-running command (roslaunch) in its own process group."""
-        log = open(self.tmp / f"bg_{len(Readme.ran)}.log", "w")
-        return subprocess.Popen(["bash", "-c", self.typed(command)], cwd=cwd or self.user,
-                                env=env or self.env, stdout=log, stderr=subprocess.STDOUT,
-                                start_new_session=True)
+        with open(self.tmp / f"bg_{len(Readme.ran)}.log", "w") as log:
+            return subprocess.Popen(["bash", "-c", self.typed(command)], cwd=cwd or self.user,
+                                    env=env or self.env, stdout=log, stderr=subprocess.STDOUT,
+                                    start_new_session=True)
 
     @staticmethod
     def stop(proc):
@@ -253,9 +254,10 @@ class Readme(unittest.TestCase):
         self.assertTrue(r.stdout.startswith(str(ws / "install/share/flexcloud")), r.stdout)
         self.assertTrue((ws / "installed/map_georeferenced.pcd").exists())
         launch_cmd = "roslaunch flexcloud georeference.launch bag:=/data/drive.bag georeference_on_bag_end:=true"
-        launch = subprocess.Popen(["bash", "-c", source + self.typed(launch_cmd)], cwd=self.home,
-                                  env=env, stdout=open(self.tmp / "install_launch.log", "w"),
-                                  stderr=subprocess.STDOUT, start_new_session=True)
+        with open(self.tmp / "install_launch.log", "w") as log:
+            launch = subprocess.Popen(["bash", "-c", source + self.typed(launch_cmd)],
+                                      cwd=self.home, env=env, stdout=log,
+                                      stderr=subprocess.STDOUT, start_new_session=True)
         try:
             result = self.wait_for_result(env=env, shell_prefix=source)
             self.assertIn("success: True", result)
