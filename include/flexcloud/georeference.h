@@ -8,8 +8,10 @@
 #include <vector>
 
 #include "flexcloud/alignment.h"
+#include "flexcloud/beside_points.h"
 #include "flexcloud/cloud_warp.h"
 #include "flexcloud/control_points.h"
+#include "flexcloud/fusion.h"
 #include "flexcloud/gnss.h"
 #include "flexcloud/params.h"
 #include "flexcloud/rubber_sheet.h"
@@ -28,18 +30,21 @@ struct StageSeconds {
   double gnss = 0.0;
   double interpolation = 0.0;
   double alignment = 0.0;
-  double control_points = 0.0;
-  double triangulation = 0.0;
+  double fusion = 0.0;
+  double control_points = 0.0;  ///< selection, refinement and the sheet
   double trajectory_warp = 0.0;
 };
 
-/// Control points of different passes over the same place whose GNSS offset disagrees with
-/// their SLAM offset: the SLAM map holds that place twice (an unclosed loop). One warp of space
-/// cannot put both passes right.
+/// Control points of different passes over the same place whose target offset (fused
+/// trajectory, or GNSS without fusion) disagrees with their SLAM offset: the SLAM map holds that
+/// place twice (an unclosed loop). One warp of space cannot put both passes right.
 struct RevisitCheck {
   std::size_t pairs = 0;        ///< pairs within 5 m of each other, on passes 50 m of path apart
-  std::size_t conflicting = 0;  ///< of those, disagreeing by more than 0.5 m + 3 sigma
-  double worst = 0.0;           ///< largest disagreement, metres
+  std::size_t conflicting = 0;  ///< of those, the SLAM disagreeing by more than 0.5 m + 3 sigma
+  double worst = 0.0;           ///< largest such disagreement, metres
+  /// Pairs where the raw GNSS disagreed with a SLAM the fused trajectory confirms: the GNSS was
+  /// wrong there and was outvoted.
+  std::size_t gnss_conflicting = 0;
 };
 
 struct GeoreferenceResult {
@@ -51,13 +56,20 @@ struct GeoreferenceResult {
   std::size_t poses_matched = 0;
   Eigen::Isometry3d T_enu_map = Eigen::Isometry3d::Identity();  ///< applied rigid transform
   double scale = 1.0;  ///< scale of the similarity fit (reported, not applied)
+  /// The fused trajectory and the fate of every fix (with params.fusion).
+  std::optional<FusionResult> fusion;
   ControlPointSelection control_points;
+  std::vector<PointPair> beside;   ///< control points beside and above the trajectory
+  std::size_t beside_folding = 0;  ///< beside points left out because they folded the sheet
   std::array<Eigen::Vector3d, 8> cuboid_enu;  ///< cuboid corners, aligned (ENU) frame
   std::shared_ptr<const RubberSheet> sheet;   ///< maps map-frame points to ENU
   Trajectory aligned;                         ///< T_enu_map * poses
   Trajectory rubbersheet;                     ///< sheet(poses), orientations rotated too
   ErrorStats metrics_aligned;                 ///< deviation to the GNSS at matched poses
   ErrorStats metrics_rubbersheet;
+  /// Deviation of the rubber-sheeted trajectory from the fused one (how closely the sheet
+  /// carries the fusion; with params.fusion).
+  ErrorStats metrics_fused;
   std::vector<double> residual_aligned;  ///< per control point, metres
   std::vector<double> residual_rubbersheet;
   RevisitCheck revisits;
@@ -66,8 +78,9 @@ struct GeoreferenceResult {
 
 /// Runs the pipeline. Throws Error (one line naming the input and the problem) when the params
 /// are invalid, no GNSS or pose is usable, the two do not overlap in time, fewer than 4 control
-/// points are usable, or the triangulation is degenerate.
-GeoreferenceResult georeference(const DriveInput& input, const Params& params);
+/// points are usable, the triangulation is degenerate, or `cancel` is cancelled.
+GeoreferenceResult georeference(const DriveInput& input, const Params& params,
+                                const CancelToken& cancel = neverCancelled());
 
 /// What a user must read beside the result, one line each: a large share of the poses without
 /// GNSS or of the map beyond the GNSS coverage (moved by the rigid transform only; `map` null:

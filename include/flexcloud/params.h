@@ -32,6 +32,19 @@ struct Params {
   double default_std_dev;
   double gnss_time_offset;
   double max_gnss_speed;
+  // Fusion of SLAM and GNSS.
+  bool fusion;
+  double fusion_spacing;
+  double slam_rotation_noise;
+  double slam_translation_noise;
+  double slam_drift_noise;
+  double slam_scale_noise;
+  double gnss_std_floor;
+  double outlier_threshold;
+  double max_time_offset;
+  double lever_arm_x;
+  double lever_arm_y;
+  double lever_arm_z;
   // Keyframe interpolation.
   InterpolationMode interpolation;
   double min_spacing;
@@ -41,6 +54,9 @@ struct Params {
   double stddev_threshold;
   double refine_fraction;
   std::vector<TimeRange> excluded_ranges;
+  // Control points beside and above the trajectory.
+  double beside_distance;
+  double above_height;
   // Rubber sheet: the enclosing cuboid.
   double margin_x;
   double margin_y;

@@ -6,9 +6,10 @@
 #include <limits>
 #include <sstream>
 
-#include "cell_hash.h"
 #include "flexcloud/interpolation.h"
 #include "flexcloud/metrics.h"
+#include "revisits.h"
+#include "sheet_builder.h"
 
 namespace flexcloud {
 namespace {
@@ -25,8 +26,6 @@ class Stopwatch {
  private:
   std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
 };
-
-constexpr double kMinRefineDeviation = 1e-3;  // m: a deviation below this needs no control point
 
 std::string span(double a, double b) {
   std::ostringstream s;
@@ -82,142 +81,71 @@ Alignment alignTrajectory(const Trajectory& poses,
   return {umeyama(src, dst, w, false).rigid(), umeyama(src, dst, w, true).scale};
 }
 
+/// The start of the fusion: a rigid fit of the poses to every GNSS the fusion may use (std-dev
+/// within the threshold or not given), reweighted twice (Cauchy) so outliers pull less.
+Alignment robustAlignment(const Trajectory& poses,
+                          const std::vector<std::optional<GnssPoint>>& gnss, const Params& params) {
+  std::vector<Eigen::Vector3d> src;
+  std::vector<Eigen::Vector3d> dst;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    if (!gnss[i] || gnss[i]->stdDev3d() > params.stddev_threshold) continue;  // NaN passes
+    src.push_back(poses[i].position);
+    dst.push_back(gnss[i]->position);
+  }
+  if (src.size() < 3) {
+    throw Error("alignment: " + std::to_string(src.size()) +
+                " poses have GNSS within the std-dev threshold of " +
+                std::to_string(params.stddev_threshold) + " m, at least 3 are needed");
+  }
+  const std::vector<double> arc = arcWeights(src);
+  std::vector<double> w = arc;
+  Similarity fit = umeyama(src, dst, w, false);
+  for (int round = 0; round < 2; ++round) {
+    std::vector<double> r(src.size());
+    for (std::size_t i = 0; i < src.size(); ++i) {
+      r[i] = (fit.rotation * src[i] + fit.translation - dst[i]).norm();
+    }
+    std::vector<double> sorted = r;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    const double c = std::max(0.1, 3.0 * sorted[sorted.size() / 2]);
+    for (std::size_t i = 0; i < src.size(); ++i) w[i] = arc[i] / (1.0 + (r[i] / c) * (r[i] / c));
+    fit = umeyama(src, dst, w, false);
+  }
+  return {fit.rigid(), umeyama(src, dst, w, true).scale};
+}
+
+/// The rigid fit of the SLAM poses to the fused ones: the rigid part of the result.
+Alignment alignToFused(const Trajectory& poses, const Trajectory& fused) {
+  const std::vector<Eigen::Vector3d> src = positionsOf(poses);
+  const std::vector<Eigen::Vector3d> dst = positionsOf(fused);
+  const std::vector<double> w = arcWeights(src);
+  return {umeyama(src, dst, w, false).rigid(), umeyama(src, dst, w, true).scale};
+}
+
+/// The fused position at every pose inside the time span of the fixes the fusion used (the
+/// control points' targets); nothing elsewhere.
+std::vector<std::optional<GnssPoint>> fusedTargets(const FusionResult& f) {
+  double first = std::numeric_limits<double>::infinity(), last = -first;
+  for (const auto& o : f.fixes) {
+    if (o.verdict != FixVerdict::kUsed) continue;
+    first = std::min(first, o.stamp), last = std::max(last, o.stamp);
+  }
+  std::vector<std::optional<GnssPoint>> out(f.poses.size());
+  for (std::size_t i = 0; i < f.poses.size(); ++i) {
+    if (f.poses[i].stamp < first || f.poses[i].stamp > last) continue;
+    GnssPoint g;
+    g.stamp = f.poses[i].stamp;
+    g.position = f.poses[i].position;
+    out[i] = g;
+  }
+  return out;
+}
+
 Trajectory transformed(const Trajectory& poses, const Eigen::Isometry3d& t) {
   Trajectory out = poses;
   for (auto& p : out) {
     p.position = t * p.position;
     p.orientation = Eigen::Quaterniond(t.linear() * p.orientation.toRotationMatrix());
-  }
-  return out;
-}
-
-/// The corners of the axis-aligned box around the aligned trajectory and the GNSS, grown by the
-/// margins.
-std::array<Eigen::Vector3d, 8> makeCuboid(const Trajectory& aligned,
-                                          const std::vector<std::optional<GnssPoint>>& gnss,
-                                          const Params& params) {
-  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
-  Eigen::Vector3d hi = -lo;
-  for (std::size_t i = 0; i < aligned.size(); ++i) {
-    lo = lo.cwiseMin(aligned[i].position);
-    hi = hi.cwiseMax(aligned[i].position);
-    if (gnss[i]) {
-      lo = lo.cwiseMin(gnss[i]->position);
-      hi = hi.cwiseMax(gnss[i]->position);
-    }
-  }
-  const Eigen::Vector3d extent = hi - lo;
-  const Eigen::Vector3d frac(params.margin_x, params.margin_y, params.margin_z);
-  const Eigen::Vector3d margin = frac.cwiseProduct(extent).cwiseMax(params.margin_min);
-  lo -= margin;
-  hi += margin;
-  std::array<Eigen::Vector3d, 8> corners;
-  for (int c = 0; c < 8; ++c) {
-    corners[c] = Eigen::Vector3d((c & 1) ? hi.x() : lo.x(), (c & 2) ? hi.y() : lo.y(),
-                                 (c & 4) ? hi.z() : lo.z());
-  }
-  return corners;
-}
-
-std::shared_ptr<const RubberSheet> buildSheet(const ControlPointSelection& cps,
-                                              const Eigen::Isometry3d& T_enu_map,
-                                              const std::array<Eigen::Vector3d, 8>& cuboid) {
-  // The triangulation lives in the aligned frame, where the cuboid is axis-aligned.
-  std::vector<Eigen::Vector3d> src;
-  std::vector<Eigen::Vector3d> dst;
-  for (const auto& cp : cps.points) {
-    src.push_back(T_enu_map * cp.source);
-    dst.push_back(cp.target);
-  }
-  // The corners keep their rigidly aligned position, and so does everything beyond them. (Moving
-  // them with a global affine fit was tried: on simulated drives it multiplied the map error,
-  // since the vertical shear fitted on a near-flat drive grows toward the distant corners.)
-  for (const auto& c : cuboid) {
-    src.push_back(c);
-    dst.push_back(c);
-  }
-  Affine34 outside;
-  outside << T_enu_map.linear(), T_enu_map.translation();
-  return std::make_shared<RubberSheet>(src, dst, outside, T_enu_map);
-}
-
-/// Deviation (m) of each usable pose, warped by the sheet, from its GNSS; NaN elsewhere.
-std::vector<double> sheetDeviation(const RubberSheet& sheet, const Trajectory& poses,
-                                   const std::vector<std::optional<GnssPoint>>& gnss,
-                                   const std::vector<bool>& usable) {
-  std::vector<double> deviation(poses.size(), std::numeric_limits<double>::quiet_NaN());
-  int hint = 0;
-  for (std::size_t i = 0; i < poses.size(); ++i) {
-    if (!usable[i]) continue;
-    const auto loc = sheet.locateFrom(poses[i].position, hint);
-    if (!loc.outside) hint = loc.tet;
-    deviation[i] =
-        (RubberSheet::apply(sheet.affineAt(loc), poses[i].position) - gnss[i]->position).norm();
-  }
-  return deviation;
-}
-
-/// Error-driven refinement of `cps` up to `total` control points (Params::refine_fraction).
-void refineControlPoints(ControlPointSelection& cps, const Trajectory& poses,
-                         const std::vector<std::optional<GnssPoint>>& gnss,
-                         const std::vector<bool>& usable, const Eigen::Isometry3d& T_enu_map,
-                         const std::array<Eigen::Vector3d, 8>& cuboid, std::size_t total) {
-  std::size_t first = poses.size(), last = 0;
-  for (std::size_t i = 0; i < poses.size(); ++i) {
-    if (gnss[i]) first = std::min(first, i), last = std::max(last, i);
-  }
-  const std::vector<double> arc = arcLength(positionsOf(poses));
-  // A refinement keeps 1/20 of the even spacing (at the full count) of path from its neighbours:
-  // enough that a standstill gathers no control points, small enough not to cost accuracy
-  // (a quarter of the spacing raised the real drive's MAX at 50 control points from 1.4 to 13 m).
-  const double separation =
-      0.05 * (arc[last] - arc[first]) / static_cast<double>(std::max<std::size_t>(1, total - 1));
-  while (cps.points.size() < total) {
-    const auto sheet = buildSheet(cps, T_enu_map, cuboid);
-    const std::vector<double> deviation = sheetDeviation(*sheet, poses, gnss, usable);
-    const std::size_t have = cps.points.size();
-    const std::size_t round = std::min(total - have, std::max<std::size_t>(1, have / 4));
-    const auto picks = pickRefinements(cps, deviation, arc, separation, round, kMinRefineDeviation);
-    if (picks.empty()) break;
-    addControlPoints(cps, picks, poses, gnss);
-  }
-}
-
-/// Finds pairs of control points on different passes over the same place (within kRadius of
-/// each other after the alignment, more than kOtherPass apart along the path) whose GNSS offset
-/// disagrees with their aligned SLAM offset.
-RevisitCheck checkRevisits(const ControlPointSelection& cps, const Trajectory& poses,
-                           const Eigen::Isometry3d& T_enu_map) {
-  constexpr double kRadius = 5.0, kOtherPass = 50.0;
-  RevisitCheck out;
-  const auto& pts = cps.points;
-  const std::vector<double> arc = arcLength(positionsOf(poses));
-  CellMap<std::vector<std::size_t>> cells;
-  std::vector<Eigen::Vector3d> aligned(pts.size());
-  for (std::size_t i = 0; i < pts.size(); ++i) {
-    aligned[i] = T_enu_map * pts[i].source;
-    cells[cellOf(aligned[i], kRadius)].push_back(i);
-  }
-  for (std::size_t i = 0; i < pts.size(); ++i) {
-    const Eigen::Vector3i key = cellOf(aligned[i], kRadius);
-    for (int dx = -1; dx <= 1; ++dx) {
-      for (int dy = -1; dy <= 1; ++dy) {
-        for (int dz = -1; dz <= 1; ++dz) {
-          const auto it = cells.find(key + Eigen::Vector3i(dx, dy, dz));
-          if (it == cells.end()) continue;
-          for (std::size_t j : it->second) {
-            if (j <= i || (aligned[j] - aligned[i]).norm() > kRadius ||
-                std::abs(arc[pts[j].pose_index] - arc[pts[i].pose_index]) < kOtherPass) {
-              continue;
-            }
-            ++out.pairs;
-            const double d = ((pts[j].target - pts[i].target) - (aligned[j] - aligned[i])).norm();
-            if (d > 0.5 + 3.0 * (pts[i].std_dev + pts[j].std_dev)) ++out.conflicting;
-            out.worst = std::max(out.worst, d);
-          }
-        }
-      }
-    }
   }
   return out;
 }
@@ -244,12 +172,15 @@ Trajectory warpTrajectory(const RubberSheet& sheet, const Trajectory& poses) {
   return out;
 }
 
-/// Deviation of a trajectory from the GNSS at every matched pose.
-ErrorStats deviationFromGnss(const Trajectory& t,
-                             const std::vector<std::optional<GnssPoint>>& gnss) {
+/// Deviation of a trajectory's antenna (the lever arm in the body frame) from the GNSS at every
+/// matched pose.
+ErrorStats deviationFromGnss(const Trajectory& t, const std::vector<std::optional<GnssPoint>>& gnss,
+                             const Eigen::Vector3d& lever_arm) {
   std::vector<double> d;
   for (std::size_t i = 0; i < t.size(); ++i) {
-    if (gnss[i]) d.push_back((t[i].position - gnss[i]->position).norm());
+    if (!gnss[i]) continue;
+    const Eigen::Vector3d antenna = t[i].position + t[i].orientation * lever_arm;
+    d.push_back((antenna - gnss[i]->position).norm());
   }
   return errorStats(d);
 }
@@ -281,25 +212,6 @@ void matchGnss(const Params& params, GeoreferenceResult& r) {
   }
 }
 
-/// A quarter (1 - refine_fraction) of the control points spread evenly, the rest refined.
-ControlPointSelection chooseControlPoints(const GeoreferenceResult& r,
-                                          const std::vector<bool>& usable, const Params& params) {
-  const auto total = static_cast<std::size_t>(params.control_points);
-  const auto refined = static_cast<std::size_t>(std::lround(params.refine_fraction * total));
-  Params even = params;
-  even.control_points = static_cast<int>(std::max<std::size_t>(4, total - refined));
-  ControlPointSelection cps = selectControlPoints(r.poses, r.gnss_at_pose, even);
-  cps.requested = total;
-  if (cps.points.size() < 4) {
-    throw Error("control points: " + std::to_string(cps.points.size()) + " usable of " +
-                std::to_string(cps.requested) + " requested (" + std::to_string(r.poses_matched) +
-                " poses with GNSS, std-dev threshold " + std::to_string(params.stddev_threshold) +
-                " m); at least 4 are needed");
-  }
-  refineControlPoints(cps, r.poses, r.gnss_at_pose, usable, r.T_enu_map, r.cuboid_enu, total);
-  return cps;
-}
-
 }  // namespace
 
 std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Params& params,
@@ -324,8 +236,10 @@ std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Param
     std::ostringstream s;
     s.precision(3);
     s << r.revisits.conflicting << " control point pairs revisit places that the SLAM map puts "
-      << "elsewhere on another pass (up to " << r.revisits.worst
-      << " m): close those loops in the SLAM, no warp can merge ghosted passes";
+      << "elsewhere on another pass (up to " << r.revisits.worst << " m) while the "
+      << (r.fusion ? "fused trajectory" : "GNSS")
+      << " puts them together: the SLAM is at fault there; close those loops in the SLAM, no "
+         "warp can merge ghosted passes";
     out.push_back(s.str());
   }
   return out;
@@ -351,7 +265,51 @@ Eigen::Matrix3d nearestRotation(const Eigen::Matrix3d& m) {
   return u * svd.matrixV().transpose();
 }
 
-GeoreferenceResult georeference(const DriveInput& input, const Params& params) {
+namespace {
+
+/// Control points and sheet of the published method: the GNSS at the poses is the target.
+void sheetFromGnss(const Params& params, GeoreferenceResult& r) {
+  const std::vector<bool> usable = usablePoses(r.poses, r.gnss_at_pose, params);
+  const Alignment a = alignTrajectory(r.poses, r.gnss_at_pose, usable, params);
+  r.T_enu_map = a.T_enu_map;
+  r.scale = a.scale;
+  r.aligned = transformed(r.poses, r.T_enu_map);
+  r.cuboid_enu = makeCuboid(r.aligned, r.gnss_at_pose, params);
+  r.control_points =
+      chooseControlPoints(r.poses, r.gnss_at_pose, usable, r.T_enu_map, r.cuboid_enu, params);
+  r.sheet = buildSheet(r.control_points, {}, r.T_enu_map, r.cuboid_enu);
+}
+
+/// Control points and sheet from the fused trajectory, with points beside and above it.
+void sheetFromFusion(const Params& params, const CancelToken& cancel, GeoreferenceResult& r,
+                     StageSeconds& seconds, Stopwatch& watch) {
+  const Alignment start = robustAlignment(r.poses, r.gnss_at_pose, params);
+  seconds.alignment = watch.lap();
+  r.fusion = fuseTrajectory(r.poses, r.gnss.points, start.T_enu_map, params, cancel);
+  const Alignment a = alignToFused(r.poses, r.fusion->poses);
+  r.T_enu_map = a.T_enu_map;
+  r.scale = a.scale;
+  r.aligned = transformed(r.poses, r.T_enu_map);
+  seconds.fusion = watch.lap();
+  const std::vector<std::optional<GnssPoint>> targets = fusedTargets(*r.fusion);
+  std::vector<bool> usable(r.poses.size());
+  for (std::size_t i = 0; i < r.poses.size(); ++i) {
+    usable[i] = isUsableGnss(targets[i], r.poses[i].stamp, params);
+  }
+  r.cuboid_enu = makeCuboid(r.aligned, targets, params);
+  r.control_points =
+      chooseControlPoints(r.poses, targets, usable, r.T_enu_map, r.cuboid_enu, params);
+  const SheetWithBeside s = buildSheetWithBeside(r.control_points, r.poses, r.fusion->poses,
+                                                 r.T_enu_map, r.cuboid_enu, params);
+  r.sheet = s.sheet;
+  r.beside = s.beside;
+  r.beside_folding = s.folding;
+}
+
+}  // namespace
+
+GeoreferenceResult georeference(const DriveInput& input, const Params& params,
+                                const CancelToken& cancel) {
   if (const std::string bad = params.validate(); !bad.empty()) throw Error("parameters: " + bad);
   if (!input.fixes.empty() && !input.local_gnss.empty()) {
     throw Error("input: give geodetic fixes or local GNSS points, not both");
@@ -362,28 +320,30 @@ GeoreferenceResult georeference(const DriveInput& input, const Params& params) {
   r.seconds.gnss = watch.lap();
   matchGnss(params, r);
   r.seconds.interpolation = watch.lap();
-
-  const std::vector<bool> usable = usablePoses(r.poses, r.gnss_at_pose, params);
-  const Alignment a = alignTrajectory(r.poses, r.gnss_at_pose, usable, params);
-  r.T_enu_map = a.T_enu_map;
-  r.scale = a.scale;
-  r.aligned = transformed(r.poses, r.T_enu_map);
-  r.seconds.alignment = watch.lap();
-
-  r.cuboid_enu = makeCuboid(r.aligned, r.gnss_at_pose, params);
-  r.control_points = chooseControlPoints(r, usable, params);
+  if (params.fusion) {
+    sheetFromFusion(params, cancel, r, r.seconds, watch);
+  } else {
+    sheetFromGnss(params, r);
+  }
   r.seconds.control_points = watch.lap();
-  r.sheet = buildSheet(r.control_points, r.T_enu_map, r.cuboid_enu);
-  r.seconds.triangulation = watch.lap();
+  cancel.check("georeferencing");
 
   r.rubbersheet = warpTrajectory(*r.sheet, r.poses);
-  r.metrics_aligned = deviationFromGnss(r.aligned, r.gnss_at_pose);
-  r.metrics_rubbersheet = deviationFromGnss(r.rubbersheet, r.gnss_at_pose);
+  const Eigen::Vector3d lever(params.lever_arm_x, params.lever_arm_y, params.lever_arm_z);
+  r.metrics_aligned = deviationFromGnss(r.aligned, r.gnss_at_pose, lever);
+  r.metrics_rubbersheet = deviationFromGnss(r.rubbersheet, r.gnss_at_pose, lever);
+  if (r.fusion) {
+    std::vector<double> d;
+    for (std::size_t i = 0; i < r.poses.size(); ++i) {
+      d.push_back((r.rubbersheet[i].position - r.fusion->poses[i].position).norm());
+    }
+    r.metrics_fused = errorStats(d);
+  }
   for (const auto& cp : r.control_points.points) {
     r.residual_aligned.push_back((r.aligned[cp.pose_index].position - cp.target).norm());
     r.residual_rubbersheet.push_back((r.rubbersheet[cp.pose_index].position - cp.target).norm());
   }
-  r.revisits = checkRevisits(r.control_points, r.poses, r.T_enu_map);
+  r.revisits = checkRevisits(r.control_points, r.poses, r.T_enu_map, r.gnss_at_pose);
   r.seconds.trajectory_warp = watch.lap();
   return r;
 }

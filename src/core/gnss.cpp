@@ -9,9 +9,16 @@ namespace {
 
 bool finiteStd(const Eigen::Vector3d& s) { return s.allFinite() && (s.array() >= 0.0).all(); }
 
-/// Gives a fix with unknown covariance the default std-dev; false when it must be dropped.
+/// Gives a fix with unknown covariance the default std-dev; false when it must be dropped. A
+/// std-dev of exactly 0 on every axis means "not given" (no receiver is that good). With the
+/// fusion, an unknown std-dev stays NaN: the fusion estimates it from the data.
 bool resolveStd(Eigen::Vector3d& std_dev, const Params& params, GnssDropCounts& dropped) {
+  if (std_dev.isZero(0.0)) std_dev.setConstant(std::nan(""));
   if (std_dev.hasNaN()) {
+    if (params.default_std_dev <= 0.0 && params.fusion) {
+      std_dev.setConstant(std::nan(""));
+      return true;
+    }
     if (params.default_std_dev <= 0.0) {
       ++dropped.unknown_covariance;
       return false;
@@ -100,7 +107,9 @@ void sortAndClean(PreparedGnss& out, const Params& params) {
     unique.push_back(p);
   }
   pts.swap(unique);
-  dropJumps(out, params);
+  // The fusion judges every fix against the SLAM and the other fixes; a jump filter on the GNSS
+  // alone keeps the wrong side after an isolated outlier, so it only runs without the fusion.
+  if (!params.fusion) dropJumps(out, params);
 }
 
 std::string dropSummary(const GnssDropCounts& d) {

@@ -49,6 +49,25 @@ json paramsJson(const Params& params) {
   return j;
 }
 
+json finiteOrNull(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+json fusionJson(const FusionResult& f) {
+  return {{"keyframes", f.keyframes},
+          {"fixes_used", f.used},
+          {"fixes_rejected",
+           {{"outlier", f.outliers},
+            {"above_std_threshold", f.above_threshold},
+            {"excluded_range", f.excluded},
+            {"outside_poses", f.outside}}},
+          {"time_offset_s", f.time_offset},
+          {"lever_arm_m", {f.lever_arm.x(), f.lever_arm.y(), f.lever_arm.z()}},
+          {"estimated_std_h_m", finiteOrNull(f.estimated_std_h)},
+          {"estimated_std_v_m", finiteOrNull(f.estimated_std_v)},
+          {"median_std_h_m", f.median_std_h},
+          {"stages", f.stages},
+          {"seconds", f.seconds}};
+}
+
 /// A staging folder inside the output folder; removed with whatever is left in it.
 class Staging {
  public:
@@ -131,10 +150,17 @@ std::string reportJson(const GeoreferenceResult& r, const Params& params, const 
   };
   j["counts"] = counts;
   j["revisits"] = {{"pairs", r.revisits.pairs},
-                   {"conflicting", r.revisits.conflicting},
-                   {"worst_m", r.revisits.worst}};
+                   {"conflicting_slam_at_fault", r.revisits.conflicting},
+                   {"worst_m", r.revisits.worst},
+                   {"gnss_outvoted", r.revisits.gnss_conflicting}};
   j["metrics"] = {{"aligned", stats(r.metrics_aligned)},
                   {"rubbersheet", stats(r.metrics_rubbersheet)}};
+  if (r.fusion) {
+    j["metrics"]["rubbersheet_vs_fused"] = stats(r.metrics_fused);
+    j["fusion"] = fusionJson(*r.fusion);
+  }
+  j["beside_points"] = {{"used", r.beside.size()}, {"left_out_folding", r.beside_folding}};
+  j["warnings"] = resultWarnings(r, params, map ? &map->warp : nullptr);
   if (map != nullptr && map->has_truth) {
     j["map_vs_truth"] = {{"aligned", stats(map->truth_aligned)},
                          {"rubbersheet", stats(map->truth_rubbersheet)}};
@@ -145,7 +171,7 @@ std::string reportJson(const GeoreferenceResult& r, const Params& params, const 
                   {"interpolation", s.interpolation},
                   {"alignment", s.alignment},
                   {"control_points", s.control_points},
-                  {"triangulation", s.triangulation},
+                  {"fusion", s.fusion},
                   {"trajectory_warp", s.trajectory_warp},
                   {"map_read", map ? map->read_seconds : 0.0},
                   {"map_location_grid", map ? map->grid_seconds : 0.0},
@@ -197,6 +223,20 @@ std::string controlPointsText(const GeoreferenceResult& r) {
 
 std::string gnssTum(const GeoreferenceResult& r) { return formatTum(gnssTrajectory(r)); }
 
+std::string fixesText(const GeoreferenceResult& r) {
+  std::ostringstream s;
+  s << "# every GNSS fix the fusion judged: stamp (GNSS clock) x y z (enu) residual_m weight "
+       "verdict (used, outlier, above_std_threshold, excluded_range, outside_poses)\n";
+  if (!r.fusion) return s.str();
+  s << std::fixed;
+  for (const auto& o : r.fusion->fixes) {
+    s << std::setprecision(6) << o.stamp << ' ' << std::setprecision(4) << o.position.x() << ' '
+      << o.position.y() << ' ' << o.position.z() << ' ' << o.residual << ' ' << std::setprecision(3)
+      << o.weight << ' ' << toString(o.verdict) << '\n';
+  }
+  return s.str();
+}
+
 void writeOutputs(const std::string& dir, const GeoreferenceResult& r, const Params& params,
                   const MapWriter& write_map, const RunContext& run) {
   Staging stage(dir);
@@ -206,6 +246,10 @@ void writeOutputs(const std::string& dir, const GeoreferenceResult& r, const Par
   writeTextFile(stage.path("trajectory_aligned.txt"), formatTum(r.aligned));
   writeTextFile(stage.path("trajectory_rubbersheet.txt"), formatTum(r.rubbersheet));
   writeTextFile(stage.path("control_points.txt"), controlPointsText(r));
+  if (r.fusion) {
+    writeTextFile(stage.path("trajectory_fused.txt"), formatTum(r.fusion->poses));
+    writeTextFile(stage.path("gnss_fixes.txt"), fixesText(r));
+  }
   writeTextFile(stage.path("origin.yaml"), originYaml(r, run.frames));
   writeTextFile(stage.path("report.json"), reportJson(r, params, run));
   run.cancel->check(dir + ": before the outputs were moved into place");

@@ -26,12 +26,14 @@ void DriveCollector::setFrame(const std::string& frame) {
 void DriveCollector::handleFix(const sensor_msgs::NavSatFix& msg) {
   RawFix f = ros_conv::fromNavSatFix(msg);
   std::lock_guard<std::mutex> lock(mutex_);
+  if (!msg.header.frame_id.empty()) fix_frame_ = msg.header.frame_id;
   pushBounded(data_.fixes, f);
 }
 
 void DriveCollector::handleOdometry(const nav_msgs::Odometry& msg) {
   Pose p = ros_conv::fromOdometry(msg);
   std::lock_guard<std::mutex> lock(mutex_);
+  if (!msg.child_frame_id.empty()) body_frame_ = msg.child_frame_id;
   setFrame(msg.header.frame_id);
   pushBounded(data_.poses, p);
 }
@@ -53,6 +55,16 @@ void DriveCollector::handlePath(const nav_msgs::Path& msg) {
 DriveInput DriveCollector::snapshot() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return data_;
+}
+
+std::string DriveCollector::fixFrame() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return fix_frame_;
+}
+
+std::string DriveCollector::bodyFrame() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return body_frame_;
 }
 
 std::string DriveCollector::mapFrame() const {
@@ -79,6 +91,8 @@ void DriveCollector::clear() {
   std::lock_guard<std::mutex> lock(mutex_);
   data_ = DriveInput{};
   frame_.clear();
+  fix_frame_.clear();
+  body_frame_.clear();
   evicted_ = 0;
 }
 

@@ -40,6 +40,7 @@ GeoreferenceNode::GeoreferenceNode(ros::NodeHandle nh, ros::NodeHandle pnh)
 void GeoreferenceNode::start() {
   collector_.setLimit(static_cast<std::size_t>(params_.max_messages));
   publisher_ = std::make_unique<ResultPublisher>(pnh_);
+  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_, nh_);
   publisher_->report(toResultMsg(nullptr, true, "no result yet"));
   reconfigure_ =
       std::make_unique<dynamic_reconfigure::Server<GeoreferenceConfig>>(config_mutex_, pnh_);
@@ -293,8 +294,24 @@ flexcloud::Result GeoreferenceNode::finish(std::shared_ptr<const NodeResult> res
   return msg;
 }
 
-std::shared_ptr<const NodeResult> GeoreferenceNode::run(const NodeParams& params,
+void GeoreferenceNode::leverArmFromTf(NodeParams& params) const {
+  if (!params.lever_arm_from_tf) return;
+  const std::string body = params.body_frame.empty() ? collector_.bodyFrame() : params.body_frame;
+  const std::string antenna = collector_.fixFrame();
+  if (body.empty() || antenna.empty() || body == antenna) return;
+  try {
+    const auto t = tf_buffer_.lookupTransform(body, antenna, ros::Time(0));
+    params.core.lever_arm_x = t.transform.translation.x;
+    params.core.lever_arm_y = t.transform.translation.y;
+    params.core.lever_arm_z = t.transform.translation.z;
+  } catch (const tf2::TransformException&) {
+    // No transform between them: the lever arm parameters apply.
+  }
+}
+
+std::shared_ptr<const NodeResult> GeoreferenceNode::run(NodeParams params,
                                                         const CancelToken& cancel) {
+  leverArmFromTf(params);
   const auto t0 = std::chrono::steady_clock::now();
   auto s = std::make_shared<NodeResult>();
   const DriveInput input = collector_.snapshot();
@@ -306,7 +323,7 @@ std::shared_ptr<const NodeResult> GeoreferenceNode::run(const NodeParams& params
   if (input.poses.empty()) {
     throw Error("no pose received yet on " + (source.empty() ? nh_.resolveName("odom") : source));
   }
-  s->result = flexcloud::georeference(input, params.core);
+  s->result = flexcloud::georeference(input, params.core, cancel);
   cancel.check("georeferencing");
   s->params = params;
   s->frames.enu = params.enu_frame;

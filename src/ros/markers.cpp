@@ -1,6 +1,7 @@
 #include "flexcloud/ros/markers.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <set>
 
@@ -73,6 +74,36 @@ visualization_msgs::MarkerArray controlPoints(const GeoreferenceResult& r, const
     a.markers.push_back(text);
   }
   a.markers.push_back(spheres);
+  return a;
+}
+
+visualization_msgs::MarkerArray rejectedFixes(const GeoreferenceResult& r, const std::string& frame,
+                                              const ros::Time& stamp) {
+  auto a = withDeleteAll(frame);
+  if (!r.fusion) return a;
+  Marker spheres = base(frame, stamp, "rejected_fixes", 0, Marker::SPHERE_LIST);
+  spheres.scale.x = spheres.scale.y = spheres.scale.z = 1.0;
+  spheres.color.r = 1.0f;
+  spheres.color.a = 1.0f;
+  for (const auto& o : r.fusion->fixes) {
+    if (o.verdict == FixVerdict::kOutlier) spheres.points.push_back(point(o.position));
+  }
+  a.markers.push_back(spheres);
+  // What the fusion estimated, beside the start of the drive.
+  const auto& f = *r.fusion;
+  Marker text = base(frame, stamp, "fusion", 0, Marker::TEXT_VIEW_FACING);
+  text.pose.position = point(f.poses.front().position + Eigen::Vector3d(0.0, 0.0, 8.0));
+  text.scale.z = 3.0;
+  text.color.r = text.color.g = text.color.b = text.color.a = 1.0f;
+  char buf[256];
+  std::snprintf(buf, sizeof(buf),
+                "GNSS: %zu used, %zu rejected; clock offset %.3f s; lever arm %.2f %.2f %.2f m; "
+                "std-dev %.3f m (h)",
+                f.used, f.outliers, f.time_offset, f.lever_arm.x(), f.lever_arm.y(),
+                f.lever_arm.z(),
+                std::isfinite(f.estimated_std_h) ? f.estimated_std_h : f.median_std_h);
+  text.text = buf;
+  a.markers.push_back(text);
   return a;
 }
 

@@ -18,6 +18,10 @@ ParamTable<N> makeNodeTable() {
       choiceRow<N>("odom_type", &N::odom_type, "odometry", {"odometry", "pose", "path"},
                    "Type on the odom topic: nav_msgs/Odometry, geometry_msgs/PoseStamped or "
                    "nav_msgs/Path (the latest path replaces all poses)"),
+      textRow<N>("body_frame", &N::body_frame, "",
+                 "Frame of the body the poses are of; empty: the odometry's child frame id"),
+      boolRow<N>("lever_arm_from_tf", &N::lever_arm_from_tf, true,
+                 "Take the lever arm from TF (body frame to the fixes' frame id) when it is there"),
       textRow<N>("bag", &N::bag, "", "Read fix and odom from this bag instead of subscribing"),
       textRow<N>("map_file", &N::map_file, "",
                  "PCD map to warp; empty: the latest PointCloud2 on the map topic"),

@@ -22,6 +22,15 @@ flexcloud::Result toResultMsg(const NodeResult* r, bool success, const std::stri
   m.warnings = r->warnings;
   m.fixes_used = static_cast<std::uint32_t>(g.gnss.points.size());
   m.fixes_dropped = static_cast<std::uint32_t>(g.gnss.dropped.total());
+  if (g.fusion) {
+    m.fixes_rejected = static_cast<std::uint32_t>(g.fusion->outliers);
+    m.time_offset = g.fusion->time_offset;
+    m.lever_arm.x = g.fusion->lever_arm.x();
+    m.lever_arm.y = g.fusion->lever_arm.y();
+    m.lever_arm.z = g.fusion->lever_arm.z();
+    m.estimated_std_h = g.fusion->estimated_std_h;
+    m.estimated_std_v = g.fusion->estimated_std_v;
+  }
   m.poses = static_cast<std::uint32_t>(g.poses.size());
   m.poses_matched = static_cast<std::uint32_t>(g.poses_matched);
   m.control_points = static_cast<std::uint32_t>(g.control_points.points.size());
@@ -54,6 +63,11 @@ flexcloud::Georeference::Response toResponse(const flexcloud::Result& msg) {
   res.warnings = msg.warnings;
   res.fixes_used = msg.fixes_used;
   res.fixes_dropped = msg.fixes_dropped;
+  res.fixes_rejected = msg.fixes_rejected;
+  res.time_offset = msg.time_offset;
+  res.lever_arm = msg.lever_arm;
+  res.estimated_std_h = msg.estimated_std_h;
+  res.estimated_std_v = msg.estimated_std_v;
   res.poses = msg.poses;
   res.poses_matched = msg.poses_matched;
   res.control_points = msg.control_points;
@@ -81,6 +95,7 @@ ResultPublisher::ResultPublisher(ros::NodeHandle& pnh) {
   control_points_ = pnh.advertise<MarkerArray>("control_points", 1, true);
   tetrahedra_ = pnh.advertise<MarkerArray>("tetrahedra", 1, true);
   deviation_ = pnh.advertise<MarkerArray>("deviation", 1, true);
+  rejected_ = pnh.advertise<MarkerArray>("rejected_fixes", 1, true);
   result_ = pnh.advertise<flexcloud::Result>("result", 1, true);
 }
 
@@ -108,6 +123,7 @@ void ResultPublisher::show(const NodeResult& s) {
   control_points_.publish(markers::controlPoints(r, enu, now));
   tetrahedra_.publish(markers::tetrahedra(r, enu, now));
   deviation_.publish(markers::deviation(r, enu, now));
+  rejected_.publish(markers::rejectedFixes(r, enu, now));
 }
 
 void ResultPublisher::withdraw(const FrameNames& frames) {
@@ -120,7 +136,7 @@ void ResultPublisher::withdraw(const FrameNames& frames) {
   for (auto* p : {&path_gnss_, &path_aligned_, &path_sheet_}) p->publish(none);
   none.header.frame_id = frames.map;
   path_slam_.publish(none);
-  for (auto* p : {&control_points_, &tetrahedra_, &deviation_}) {
+  for (auto* p : {&control_points_, &tetrahedra_, &deviation_, &rejected_}) {
     p->publish(markers::cleared(frames.enu));
   }
 }

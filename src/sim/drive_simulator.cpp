@@ -204,6 +204,7 @@ void makeMap(const Route& route, const std::vector<double>& arc,
   map.intensity.reserve(n);
   map.ring.reserve(n);
   map.label.reserve(n);
+  map.lateral.reserve(n);
   std::vector<std::size_t> scan(n);  // the pose that saw each point
   std::vector<double> azimuth(n);    // and its direction from that pose
   for (std::size_t i = 0; i < n; ++i) {
@@ -245,6 +246,7 @@ void makeMap(const Route& route, const std::vector<double>& arc,
     map.intensity.push_back(static_cast<float>(100.0 * u01(rng)));
     map.ring.push_back(static_cast<std::uint16_t>(rng() % 32));
     map.label.push_back(label);
+    map.lateral.push_back(static_cast<float>(std::abs(local.y())));
   }
   // A SLAM map is stored scan by scan, each scan as the LiDAR swept it: order the points by the
   // pose that saw them, then by azimuth.
@@ -262,6 +264,7 @@ void makeMap(const Route& route, const std::vector<double>& arc,
   permute(map.intensity);
   permute(map.ring);
   permute(map.label);
+  permute(map.lateral);
 }
 
 }  // namespace
@@ -290,6 +293,14 @@ std::string validate(const SimParams& p) {
   req(std::isfinite(p.clock_offset) && std::abs(p.clock_offset) <= 100.0,
       "clock_offset must be in [-100, 100] s");
   req(p.map_points <= 200000000, "map_points must be at most 2e8");
+  req(p.lever_arm.allFinite() && p.lever_arm.norm() <= 10.0, "lever_arm must be within 10 m");
+  const GnssErrors& e = p.gnss_errors;
+  req(e.multipath_per_km >= 0.0 && e.float_per_km >= 0.0 && e.outlier_share >= 0.0 &&
+          e.outlier_share <= 1.0 && e.no_covariance_share >= 0.0 && e.no_covariance_share <= 1.0 &&
+          e.end_false_rtk_s >= 0.0 && e.multipath_min_s > 0.0 &&
+          e.multipath_min_s <= e.multipath_max_s && e.float_min_s > 0.0 &&
+          e.float_min_s <= e.float_max_s,
+      "GNSS error rates must not be negative, shares at most 1, durations positive");
   req(isValidGeodetic(p.datum.lat, p.datum.lon, p.datum.alt), "datum is not a valid position");
   return bad.str();
 }
@@ -326,6 +337,8 @@ SimDrive simulateDrive(const SimParams& p) {
   const double std_h = p.reported_std_h > 0.0 ? p.reported_std_h : p.gnss_noise_h;
   const double std_v = p.reported_std_v > 0.0 ? p.reported_std_v : p.gnss_noise_v;
   const auto n_gnss = static_cast<std::size_t>(std::floor(duration * p.gnss_rate)) + 1;
+  GnssErrorModel errors(p.gnss_errors, duration, length, Eigen::Vector3d(std_h, std_h, std_v),
+                        p.seed);
   for (std::size_t j = 0; j < n_gnss; ++j) {
     const double t = static_cast<double>(j) / p.gnss_rate;
     const bool outage = inAny(p.outages, t);
@@ -333,7 +346,8 @@ SimDrive simulateDrive(const SimParams& p) {
         outage ? Eigen::Vector3d::Constant(p.outage_noise)
                : Eigen::Vector3d(p.gnss_noise_h, p.gnss_noise_h, p.gnss_noise_v);
     const Eigen::Vector3d noise(sigma.x() * n01(rng), sigma.y() * n01(rng), sigma.z() * n01(rng));
-    const Eigen::Vector3d pos = poseAt(arcAt(t, p, length)).translation() + noise;
+    const GnssErrorSample e = errors.at(t);
+    const Eigen::Vector3d pos = poseAt(arcAt(t, p, length)) * p.lever_arm + noise + e.error;
     RawFix f;
     f.fix.stamp = p.start_stamp + t + p.clock_offset;
     f.has_fix = !inAny(p.no_fix, t);
@@ -343,6 +357,7 @@ SimDrive simulateDrive(const SimParams& p) {
     f.fix.alt = f.has_fix ? g.alt : 0.0;
     f.fix.std_enu =
         outage ? Eigen::Vector3d::Constant(p.outage_std) : Eigen::Vector3d(std_h, std_h, std_v);
+    if (!e.normal || !e.reported_std.allFinite()) f.fix.std_enu = e.reported_std;
     d.fixes.push_back(f);
   }
   makeMap(route, arc, truth, slam, p, rng, d.map);  // points of one lap, seen on any lap

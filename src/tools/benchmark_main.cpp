@@ -294,9 +294,9 @@ void oneHourDrive(const Options& o) {
   std::printf(
       "| - | pipeline without map, one-hour drive (%zu poses, %zu fixes) | 2000 (%zu "
       "tetrahedra) | %.3f s | | interpolation %.3f, alignment %.3f, control points %.3f, "
-      "triangulation %.3f, trajectory %.3f s |\n",
+      "fusion %.3f, trajectory %.3f s |\n",
       r.poses.size(), r.gnss.points.size(), r.sheet->numTetrahedra(), s, t.interpolation,
-      t.alignment, t.control_points, t.triangulation, t.trajectory_warp);
+      t.alignment, t.control_points, t.fusion, t.trajectory_warp);
 }
 
 }  // namespace

@@ -24,6 +24,23 @@ sim::SimParams small(std::uint64_t seed = 21) {
   return sp;
 }
 
+/// The published method's path: no fusion (the jump filter and GNSS control points).
+Params legacy(Params p = {}) {
+  p.fusion = false;
+  return p;
+}
+
+/// How many of the fixes stamped in [t0, t1) seconds after the start the fusion rejected.
+std::size_t rejectedBetween(const GeoreferenceResult& r, const sim::SimDrive& d, double t0,
+                            double t1) {
+  std::size_t n = 0;
+  for (const auto& o : r.fusion->fixes) {
+    const double t = o.stamp - d.params.start_stamp;
+    if (t >= t0 && t < t1 && o.verdict != FixVerdict::kUsed) ++n;
+  }
+  return n;
+}
+
 std::string errorOf(const DriveInput& in, const Params& p) {
   return test::errorOf([&] { georeference(in, p); });
 }
@@ -35,9 +52,14 @@ TEST(BadInput, GnssJumpOfHundredsOfMetresForTwentySeconds) {
     const double t = f.fix.stamp - d.params.start_stamp;
     if (t >= 100.0 && t < 120.0) f.fix.lat += 0.003;  // 333 m north
   }
-  const GeoreferenceResult r = georeference(in, atSimDatum(d));
-  EXPECT_EQ(r.gnss.dropped.outlier, 100u);  // 20 s at 5 Hz
+  const GeoreferenceResult r = georeference(in, legacy(atSimDatum(d)));
+  EXPECT_EQ(r.gnss.dropped.outlier, 100u);  // 20 s at 5 Hz, by the jump filter
   EXPECT_LE(mapError(d, r).rmse, 0.25);
+  // The fusion rejects exactly those, and the map is as good.
+  const GeoreferenceResult f = georeference(in, atSimDatum(d));
+  EXPECT_EQ(rejectedBetween(f, d, 100.0, 120.0), 100u);
+  EXPECT_LE(f.fusion->outliers, 105u);
+  EXPECT_LE(mapError(d, f).rmse, 0.1);
 }
 
 TEST(BadInput, DuplicateAndOutOfOrderStampsGiveTheCleanResult) {
@@ -120,8 +142,11 @@ TEST(BadInput, FewerThanFourPosesIsAClearError) {
   const sim::SimDrive d = sim::simulateDrive(small());
   DriveInput in = inputOf(d);
   in.poses.resize(3);
-  const std::string e = errorOf(in, Params{});
+  const std::string e = errorOf(in, legacy());
   EXPECT_NE(e.find("at least 4 are needed"), std::string::npos) << e;
+  const std::string f = errorOf(in, Params{});
+  EXPECT_NE(f.find("fusion: 2 fixes can take part"), std::string::npos) << f;
+  EXPECT_NE(f.find("at least 3 are needed"), std::string::npos) << f;
 }
 
 TEST(BadInput, MoreControlPointsAskedThanPoses) {
@@ -197,13 +222,21 @@ TEST(BadInput, ALongOutageWithHighStdDev) {
   sim::SimParams sp = small();
   sp.outages = {{50.0, 170.0}};  // two minutes, 1.4 km of path
   const sim::SimDrive d = sim::simulateDrive(sp);
-  const GeoreferenceResult r = georeference(inputOf(d), atSimDatum(d));
+  const GeoreferenceResult r = georeference(inputOf(d), legacy(atSimDatum(d)));
   for (const auto& cp : r.control_points.points) {
     const double t = cp.stamp - sp.start_stamp;
     EXPECT_FALSE(t > 50.5 && t < 169.5);
   }
   EXPECT_GT(r.control_points.skipped, 0u);
   EXPECT_TRUE(std::isfinite(mapError(d, r).rmse));
+  // The fusion leaves the outage's fixes out (their std-dev is above the threshold) and carries
+  // the trajectory across on the SLAM: control points inside the outage hold that estimate.
+  const GeoreferenceResult f = georeference(inputOf(d), atSimDatum(d));
+  EXPECT_EQ(f.fusion->above_threshold, 601u);  // 120 s at 5 Hz, both ends
+  const ErrorStats fused = mapError(d, f);
+  std::printf("2 min outage: map RMSE %.3f m with the fusion, %.3f m without\n", fused.rmse,
+              mapError(d, r).rmse);
+  EXPECT_LE(fused.rmse, 0.5);
 }
 
 }  // namespace

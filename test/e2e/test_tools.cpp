@@ -49,9 +49,10 @@ TEST_F(Tools, BagWithMapGivesEveryOutputAndAccurateMap) {
   const Result r = sh(bin("georeference") + " --bag " + sim() + "/drive.bag --map " + sim() +
                       "/map.pcd --truth " + sim() + "/truth_map.pcd --out " + o + datum());
   ASSERT_EQ(r.code, 0) << r.output;
-  for (const char* f : {"map_georeferenced.pcd", "trajectory_gnss.txt", "trajectory_slam.txt",
-                        "trajectory_aligned.txt", "trajectory_rubbersheet.txt",
-                        "control_points.txt", "origin.yaml", "report.json"}) {
+  for (const char* f :
+       {"map_georeferenced.pcd", "trajectory_gnss.txt", "trajectory_slam.txt",
+        "trajectory_aligned.txt", "trajectory_rubbersheet.txt", "control_points.txt", "origin.yaml",
+        "report.json", "trajectory_fused.txt", "gnss_fixes.txt"}) {
     EXPECT_TRUE(fs::exists(o + "/" + f)) << f;
   }
   for (const auto& e : fs::directory_iterator(o)) {
@@ -67,6 +68,27 @@ TEST_F(Tools, BagWithMapGivesEveryOutputAndAccurateMap) {
   EXPECT_GT(j["map_vs_truth"]["aligned"]["rmse"].get<double>(), 1.0);
   EXPECT_LT(j["metrics"]["rubbersheet"]["mae"].get<double>(), 0.1);
   EXPECT_EQ(j["T_enu_map"].size(), 4u);
+  // What the fusion did with the GNSS: every fix accounted for, the estimates reported.
+  const auto& fu = j["fusion"];
+  const std::size_t judged = fu["fixes_used"].get<std::size_t>() +
+                             fu["fixes_rejected"]["outlier"].get<std::size_t>() +
+                             fu["fixes_rejected"]["above_std_threshold"].get<std::size_t>() +
+                             fu["fixes_rejected"]["excluded_range"].get<std::size_t>() +
+                             fu["fixes_rejected"]["outside_poses"].get<std::size_t>();
+  EXPECT_EQ(judged, j["counts"]["fixes_used"].get<std::size_t>());
+  EXPECT_NEAR(fu["time_offset_s"].get<double>(), 0.0, 0.02);
+  EXPECT_EQ(fu["lever_arm_m"].size(), 3u);
+  EXPECT_TRUE(fu["estimated_std_h_m"].is_null());  // every simulated fix has its covariance
+  EXPECT_GT(j["beside_points"]["used"].get<int>(), 200);
+  std::ifstream fixes(o + "/gnss_fixes.txt");
+  std::size_t lines = 0, used = 0;
+  for (std::string line; std::getline(fixes, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    ++lines;
+    used += line.find(" used") != std::string::npos ? 1 : 0;
+  }
+  EXPECT_EQ(lines, judged);
+  EXPECT_EQ(used, fu["fixes_used"].get<std::size_t>());
   const pcl::PCLPointCloud2 in = readPcd(sim() + "/map.pcd");
   const pcl::PCLPointCloud2 warped = readPcd(o + "/map_georeferenced.pcd");
   EXPECT_EQ(warped.width * warped.height, 50000u);

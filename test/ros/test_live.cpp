@@ -2,6 +2,7 @@
 #include <dynamic_reconfigure/client.h>
 #include <nav_msgs/Path.h>
 #include <std_srvs/Trigger.h>
+#include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 
 #include <filesystem>
@@ -20,6 +21,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
+const Eigen::Vector3d kLeverArm(0.8, 0.0, 1.5);
+
 /// A simulated drive published on the live topics.
 class Live : public ::testing::Test {
  protected:
@@ -27,12 +30,24 @@ class Live : public ::testing::Test {
     sim::SimParams sp;
     sp.seed = 5;
     sp.map_points = 200000;
+    sp.lever_arm = kLeverArm;  // the antenna sits above the body's origin, as TF says
     drive_ = new sim::SimDrive(sim::simulateDrive(sp));
   }
   static void TearDownTestSuite() { delete drive_; }
 
   /// Publishes the map and the first `share` of the fixes and poses.
   void publishDrive(double share = 1.0) {
+    // The lever arm comes from TF: body frame of the odometry -> frame of the fixes.
+    geometry_msgs::TransformStamped antenna;
+    antenna.header.stamp = ros::Time::now();
+    antenna.header.frame_id = "base_link";
+    antenna.child_frame_id = "gnss";
+    antenna.transform.translation.x = kLeverArm.x();
+    antenna.transform.translation.y = kLeverArm.y();
+    antenna.transform.translation.z = kLeverArm.z();
+    antenna.transform.rotation.w = 1.0;
+    static tf2_ros::StaticTransformBroadcaster broadcaster;
+    broadcaster.sendTransform(antenna);
     // The publishers outlive this function: destroyed, they would drop what is still queued.
     ros::NodeHandle nh;
     fix_pub_ = nh.advertise<sensor_msgs::NavSatFix>("/fix", 10000);
@@ -107,7 +122,9 @@ TEST_F(Live, TopicsInAccurateMapOutTfAndMarkersToo) {
   EXPECT_EQ(r.points_outside, 0u);
   EXPECT_LT(r.rubbersheet.mae, 0.1);
   EXPECT_GT(r.aligned.mae, 1.0);
-  EXPECT_NEAR(r.datum_lat, 48.262, 1e-9);  // the datum given in live.test
+  EXPECT_NEAR(r.datum_lat, 48.262, 1e-9);           // the datum given in live.test
+  EXPECT_NEAR(r.lever_arm.x, kLeverArm.x(), 1e-9);  // from TF
+  EXPECT_NEAR(r.lever_arm.z, kLeverArm.z(), 1e-9);
 
   const auto map = mapAfter(before, 20.0);
   ASSERT_TRUE(map);
@@ -212,6 +229,14 @@ TEST_F(Live, ResultTopicDescribesThePublishedResult) {
   EXPECT_EQ(msg->message, r.message);
   EXPECT_EQ(msg->poses, r.poses);
   EXPECT_EQ(msg->fixes_used, r.fixes_used);
+  EXPECT_EQ(msg->fixes_rejected, r.fixes_rejected);
+  EXPECT_NEAR(msg->time_offset, 0.0, 0.02);       // the drive's clocks agree
+  EXPECT_TRUE(std::isnan(msg->estimated_std_h));  // every fix has its covariance
+  ros::NodeHandle nh;
+  const auto rejected = ros::topic::waitForMessage<visualization_msgs::MarkerArray>(
+      "/flexcloud/rejected_fixes", nh, ros::Duration(10.0));
+  ASSERT_TRUE(rejected);
+  EXPECT_EQ(sphereCount(*rejected), r.fixes_rejected);
   EXPECT_EQ(msg->control_points, r.control_points);
   EXPECT_EQ(msg->map_points, r.map_points);
   EXPECT_DOUBLE_EQ(msg->rubbersheet.mae, r.rubbersheet.mae);

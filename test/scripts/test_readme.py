@@ -28,6 +28,7 @@ NOT_RUN = {
     "scripts/test.sh --fuzz 60": "the suite itself (it fuzzes for 20 s)",
     "scripts/fuzz.sh 600": "ten minutes per target; the suite fuzzes each for 20 s",
     "scripts/benchmark.sh": "minutes on 10 M points; doc/BENCHMARKS.md holds its figures",
+    "scripts/accuracy.sh": "a few minutes; the end-to-end tests assert its targets",
 }
 
 

@@ -23,6 +23,14 @@ std::vector<RawFix> drive() {
   return v;
 }
 
+/// The published method's preparation: no fusion, so the jump filter runs and fixes without a
+/// covariance are dropped unless a default std-dev is given.
+Params legacy() {
+  Params p;
+  p.fusion = false;
+  return p;
+}
+
 TEST(Gnss, DatumIsTheEarliestValidFix) {
   auto v = drive();
   std::swap(v[0], v[5]);                              // out of order
@@ -46,7 +54,7 @@ TEST(Gnss, EveryDroppedFixIsCountedByReason) {
   v.push_back(fix(105.0, 48.0005, 11.0));             // duplicate stamp
   v[10].fix.lat += 0.01;                              // a 1.1 km jump for one fix
   v.push_back(fix(123.0, 48.0, 11.0, -1.0));          // negative std: invalid
-  const PreparedGnss g = prepareGeodeticGnss(v, Params{});
+  const PreparedGnss g = prepareGeodeticGnss(v, legacy());
   EXPECT_EQ(g.received, 25u);
   EXPECT_EQ(g.dropped.invalid, 3u);
   EXPECT_EQ(g.dropped.unknown_covariance, 1u);
@@ -60,7 +68,7 @@ TEST(Gnss, ASustainedJumpAwayAndBackLosesExactlyTheFixesInBetween) {
   for (int k = 0; k < 200; ++k) v.push_back(fix(100.0 + 0.2 * k, 48.0 + 0.18e-4 * k, 11.0));
   for (int k = 60; k < 90; ++k) v[k].fix.lon += 0.005;    // 6 s 370 m east, then back
   for (int k = 150; k < 151; ++k) v[k].fix.lat -= 0.004;  // and one fix 440 m south
-  const PreparedGnss g = prepareGeodeticGnss(v, Params{});
+  const PreparedGnss g = prepareGeodeticGnss(v, legacy());
   EXPECT_EQ(g.dropped.outlier, 31u);
   EXPECT_EQ(g.points.size(), 169u);
   for (const auto& p : g.points) EXPECT_LT(std::abs(p.position.x()), 1.0);  // none of the east ones
@@ -70,7 +78,7 @@ TEST(Gnss, AJumpAtTheStartIsTheMinorityNotTheReference) {
   std::vector<RawFix> v;
   for (int k = 0; k < 100; ++k) v.push_back(fix(100.0 + 0.2 * k, 48.0 + 0.18e-4 * k, 11.0));
   for (int k = 0; k < 10; ++k) v[k].fix.lon += 0.01;  // the first 2 s are 740 m off
-  Params p;
+  Params p = legacy();
   p.datum_lat = 48.0;
   p.datum_lon = 11.0;
   p.datum_alt = 0.0;
@@ -78,7 +86,7 @@ TEST(Gnss, AJumpAtTheStartIsTheMinorityNotTheReference) {
   EXPECT_EQ(g.dropped.outlier, 10u);
   EXPECT_NEAR(g.points.front().stamp, 102.0, 1e-9);
   // Without a given datum, the datum is the earliest fix that was kept, not a jumped one.
-  const PreparedGnss h = prepareGeodeticGnss(v, Params{});
+  const PreparedGnss h = prepareGeodeticGnss(v, legacy());
   EXPECT_NEAR(h.datum->lon, 11.0, 1e-12);
   EXPECT_NEAR(h.datum->lat, 48.0 + 0.18e-4 * 10, 1e-12);
   EXPECT_LT(h.points.front().position.norm(), 1e-6);
@@ -87,12 +95,26 @@ TEST(Gnss, AJumpAtTheStartIsTheMinorityNotTheReference) {
 TEST(Gnss, DefaultStdDevKeepsFixesWithUnknownCovariance) {
   auto v = drive();
   for (auto& f : v) f.fix.std_enu.setConstant(std::nan(""));
-  Params p;
+  Params p = legacy();
   p.default_std_dev = 0.5;
   const PreparedGnss g = prepareGeodeticGnss(v, p);
   EXPECT_EQ(g.points.size(), v.size());
   EXPECT_DOUBLE_EQ(g.points[0].std_dev.x(), 0.5);
-  EXPECT_THROW(prepareGeodeticGnss(v, Params{}), Error);  // all dropped: a clear error
+  EXPECT_THROW(prepareGeodeticGnss(v, legacy()), Error);  // all dropped: a clear error
+}
+
+TEST(Gnss, WithTheFusionNothingIsDroppedForJumpsOrUnknownCovariance) {
+  auto v = drive();
+  v[10].fix.lat += 0.01;                        // a 1.1 km jump: the fusion judges it
+  v[12].fix.std_enu.setConstant(std::nan(""));  // no covariance: estimated by the fusion
+  v[14].fix.std_enu.setZero();                  // a std-dev of 0 means "not given"
+  const PreparedGnss g = prepareGeodeticGnss(v, Params{});
+  EXPECT_EQ(g.points.size(), v.size());
+  EXPECT_EQ(g.dropped.total(), 0u);
+  EXPECT_TRUE(g.points[12].std_dev.hasNaN());
+  EXPECT_TRUE(g.points[14].std_dev.hasNaN());
+  EXPECT_DOUBLE_EQ(g.points[0].std_dev.x(), 0.02);
+  EXPECT_NEAR(g.points[10].position.y(), 1112.0 + 10 * 10.0, 5.0);
 }
 
 TEST(Gnss, GivenDatumAndTimeOffset) {

@@ -47,6 +47,8 @@ std::string originYaml(const GeoreferenceResult& r, const FrameNames& frames);
 std::string controlPointsText(const GeoreferenceResult& r);
 /// The interpolated GNSS at every matched pose as TUM (identity orientation).
 std::string gnssTum(const GeoreferenceResult& r);
+/// Every fix the fusion judged, with its residual, weight and verdict (gnss_fixes.txt).
+std::string fixesText(const GeoreferenceResult& r);
 
 /// Writes the georeferenced map to the path it is given (a finished cloud, or a streaming warp
 /// that fills the MapInfo as it goes).
@@ -54,7 +56,8 @@ using MapWriter = std::function<void(const std::string& path)>;
 
 /// Writes map_georeferenced.pcd (through write_map, if given; it runs first, so the report
 /// sees what it put into run.map), trajectory_{gnss,slam,aligned,rubbersheet}.txt,
-/// control_points.txt, origin.yaml and report.json into `dir` (created if needed). Throws
+/// control_points.txt, with the fusion trajectory_fused.txt and gnss_fixes.txt, origin.yaml
+/// and report.json into `dir` (created if needed). Throws
 /// Error, also when run.cancel is cancelled; on failure `dir` keeps its previous files.
 void writeOutputs(const std::string& dir, const GeoreferenceResult& r, const Params& params,
                   const MapWriter& write_map, const RunContext& run);

@@ -32,6 +32,10 @@ class DriveCollector {
   DriveInput snapshot() const;
   /// Frame id of the poses (the SLAM map frame), empty until a pose arrived.
   std::string mapFrame() const;
+  /// Frame id of the fixes (the GNSS antenna), empty until a fix with one arrived.
+  std::string fixFrame() const;
+  /// Child frame id of the odometry (the body the poses are of), empty if none was given.
+  std::string bodyFrame() const;
   std::size_t fixCount() const;
   std::size_t poseCount() const;
   /// Messages dropped to keep memory bounded.
@@ -46,6 +50,8 @@ class DriveCollector {
   mutable std::mutex mutex_;
   DriveInput data_;
   std::string frame_;
+  std::string fix_frame_;
+  std::string body_frame_;
   std::size_t max_;
   std::size_t evicted_ = 0;
 };

@@ -8,6 +8,8 @@
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <std_srvs/Trigger.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
 
 #include <condition_variable>
 #include <future>
@@ -71,7 +73,9 @@ class GeoreferenceNode {
   void readBag();
   /// Loads `file` into map_; returns the error ("" on success) and the point count.
   std::string readMapFile(const std::string& file, std::uint64_t* points);
-  std::shared_ptr<const NodeResult> run(const NodeParams& params, const CancelToken& cancel);
+  std::shared_ptr<const NodeResult> run(NodeParams params, const CancelToken& cancel);
+  /// The lever arm from TF (body frame -> the fixes' frame) into `params`, when asked and there.
+  void leverArmFromTf(NodeParams& params) const;
   sensor_msgs::PointCloud2ConstPtr warpMap(const NodeParams& params, const GeoreferenceResult& r,
                                            const CancelToken& cancel, MapInfo& info);
   /// Shows a finished run (or its failure) unless a reset came in between.
@@ -93,6 +97,8 @@ class GeoreferenceNode {
   std::vector<ros::Subscriber> subscribers_;
   std::vector<ros::ServiceServer> services_;
   std::unique_ptr<ResultPublisher> publisher_;
+  tf2_ros::Buffer tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
 
   boost::recursive_mutex config_mutex_;
   std::unique_ptr<dynamic_reconfigure::Server<GeoreferenceConfig>> reconfigure_;

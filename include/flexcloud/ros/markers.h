@@ -16,6 +16,10 @@ visualization_msgs::MarkerArray cleared(const std::string& frame);
 visualization_msgs::MarkerArray controlPoints(const GeoreferenceResult& r, const std::string& frame,
                                               const ros::Time& stamp);
 
+/// The fixes the fusion rejected as outliers: red spheres at the fixes; empty without fusion.
+visualization_msgs::MarkerArray rejectedFixes(const GeoreferenceResult& r, const std::string& frame,
+                                              const ros::Time& stamp);
+
 /// The tetrahedra edges in the ENU frame (after the rubber sheet).
 visualization_msgs::MarkerArray tetrahedra(const GeoreferenceResult& r, const std::string& frame,
                                            const ros::Time& stamp);

@@ -20,6 +20,8 @@ struct NodeParams {
   std::string enu_frame;
   std::string map_frame;
   std::string odom_type;
+  std::string body_frame;
+  bool lever_arm_from_tf;
   std::string bag;
   std::string map_file;
   bool georeference_on_bag_end;

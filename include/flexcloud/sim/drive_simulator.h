@@ -9,6 +9,7 @@
 
 #include "flexcloud/geodesy.h"
 #include "flexcloud/gnss.h"
+#include "flexcloud/sim/gnss_errors.h"
 #include "flexcloud/types.h"
 
 namespace flexcloud::sim {
@@ -43,6 +44,10 @@ struct SimParams {
   std::vector<TimeRange> no_fix;
   /// GNSS clock minus SLAM clock (s): GNSS stamps are shifted by this.
   double clock_offset = 0.0;
+  /// The errors of urban GNSS beyond the noise above (all off by default).
+  GnssErrors gnss_errors;
+  /// The GNSS antenna in the vehicle (body) frame, m: the fixes are of the antenna.
+  Eigen::Vector3d lever_arm = Eigen::Vector3d::Zero();
   /// SLAM drift: heading and pitch bias (deg per 100 m), scale error (fraction), random walks.
   double heading_bias = 0.1;
   double pitch_bias = 0.04;
@@ -63,6 +68,7 @@ struct SimMap {
   std::vector<float> intensity;
   std::vector<std::uint16_t> ring;
   std::vector<std::uint32_t> label;  ///< 1 ground, 2 wall, 3 pole
+  std::vector<float> lateral;        ///< m, horizontal distance from the route's centre line
 };
 
 struct SimDrive {

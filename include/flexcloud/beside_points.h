@@ -1,0 +1,37 @@
+#pragma once
+// Control points off the trajectory: the rubber sheet of positions along a road cannot see the
+// rotation errors of the SLAM (heading, pitch, roll), which move points beside and above the
+// road. For each control point on the trajectory, points at +-beside_distance (left, right) and
+// above_height (up) in the body frame are added, mapped from the SLAM pose to the fused pose:
+// the sheet then carries the rotation of the correction as well as its translation.
+
+#include <vector>
+
+#include "flexcloud/control_points.h"
+#include "flexcloud/rubber_sheet.h"
+#include "flexcloud/types.h"
+
+namespace flexcloud {
+
+/// A point pair of the rubber sheet: source in the map frame, target in ENU.
+struct PointPair {
+  Eigen::Vector3d source = Eigen::Vector3d::Zero();
+  Eigen::Vector3d target = Eigen::Vector3d::Zero();
+  std::size_t pose_index = 0;  ///< the control point it belongs to
+};
+
+/// The points beside and above each control point. An offset point is left out where another
+/// part of the route lies nearer to it than 0.7 times its offset (another pass, the inside of a
+/// tight curve): there the correction of that other part applies, and two targets for one
+/// place would fold the sheet.
+std::vector<PointPair> besidePoints(const ControlPointSelection& cps, const Trajectory& slam,
+                                    const Trajectory& fused, double beside, double above);
+
+/// Indices (into `pairs`) of the points that are vertices of tetrahedra the sheet turns inside
+/// out or squeezes flat (determinant of the linear part below 0.2). The sheet's sources are
+/// the pairs' sources moved by `input_to_source` (the frame the sheet triangulates in).
+std::vector<std::size_t> foldingPoints(const RubberSheet& sheet,
+                                       const std::vector<PointPair>& pairs,
+                                       const Eigen::Isometry3d& input_to_source);
+
+}  // namespace flexcloud

@@ -1,0 +1,76 @@
+#pragma once
+// Robust fusion of the SLAM trajectory and the GNSS into one estimate of the true trajectory,
+// before any control point is chosen. The SLAM is right locally and wrong globally; the GNSS is
+// right globally and wrong locally, sometimes badly and sometimes while claiming to be good.
+//
+// A pose graph over keyframes of the SLAM trajectory (Ceres Solver): each keyframe has a pose in
+// ENU and a drift state (rotation rate per metre and scale error) that changes slowly; the SLAM
+// relative motion between keyframes is a factor whose noise grows with the path; each fix is a
+// factor on the antenna position (the pose at the fix's stamp, the lever arm applied) weighted
+// by its std-dev, under a redescending loss (Geman-McClure) whose scale shrinks stage by stage
+// (graduated non-convexity), so clusters of false RTK fixes lose their pull. The GNSS clock
+// offset is a parameter of the problem; std-devs the receiver does not give are estimated from
+// the residuals.
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "flexcloud/cancel.h"
+#include "flexcloud/params.h"
+#include "flexcloud/types.h"
+
+namespace flexcloud {
+
+/// Why a fix did not take part in, or was rejected by, the fusion.
+enum class FixVerdict {
+  kUsed,            ///< an inlier
+  kOutlier,         ///< rejected by the robust loss: far from what SLAM and the other fixes say
+  kAboveThreshold,  ///< its reported std-dev is above stddev_threshold
+  kExcluded,        ///< in one of the excluded time ranges
+  kOutsidePoses,    ///< outside the time span of the poses
+};
+
+std::string toString(FixVerdict v);
+
+/// What became of one fix.
+struct FixOutcome {
+  double stamp = 0.0;  ///< GNSS clock, time offset of the parameters applied
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< ENU
+  double residual = 0.0;  ///< m, from the fused antenna position (NaN where not fused)
+  double weight = 0.0;    ///< final weight of the robust loss, 0..1
+  FixVerdict verdict = FixVerdict::kUsed;
+};
+
+struct FusionResult {
+  /// The fused pose (ENU, body frame) at every pose of the input, in the same order.
+  Trajectory poses;
+  std::vector<FixOutcome> fixes;
+  /// Clock offset estimated on top of params.gnss_time_offset, s (SLAM time = GNSS time -
+  /// offset).
+  double time_offset = 0.0;
+  Eigen::Vector3d lever_arm = Eigen::Vector3d::Zero();  ///< applied, body frame, m
+  /// The 1-sigma std-devs given to fixes without one: estimated from the residuals (NaN when
+  /// every fix had its own).
+  double estimated_std_h = 0.0;
+  double estimated_std_v = 0.0;
+  /// Median std-dev the fused fixes were weighted with (horizontal, m).
+  double median_std_h = 0.0;
+  std::size_t keyframes = 0;
+  std::size_t used = 0;
+  std::size_t outliers = 0;
+  std::size_t above_threshold = 0;
+  std::size_t excluded = 0;
+  std::size_t outside = 0;
+  int stages = 0;  ///< robust-loss stages solved
+  double seconds = 0.0;
+};
+
+/// Fuses `poses` (SLAM, map frame, sorted by stamp) with `gnss` (ENU, sorted by stamp, std-dev
+/// NaN where not given), starting from the rigid alignment T_enu_map. Throws Error when fewer
+/// than 3 fixes can take part, or when cancelled.
+FusionResult fuseTrajectory(const Trajectory& poses, const std::vector<GnssPoint>& gnss,
+                            const Eigen::Isometry3d& T_enu_map, const Params& params,
+                            const CancelToken& cancel = neverCancelled());
+
+}  // namespace flexcloud

@@ -1,0 +1,118 @@
+#include "flexcloud/beside_points.h"
+
+#include <algorithm>
+#include <limits>
+#include <set>
+
+#include "cell_hash.h"
+#include "flexcloud/trajectory.h"
+
+namespace flexcloud {
+namespace {
+
+/// Nearest-neighbour queries on the SLAM positions through a hash grid.
+class PositionGrid {
+ public:
+  PositionGrid(const Trajectory& poses, double cell) : cell_(cell) {
+    for (std::size_t i = 0; i < poses.size(); ++i) {
+      cells_[cellOf(poses[i].position, cell_)].push_back(poses[i].position);
+    }
+  }
+  /// Whether a position lies within `radius` of p.
+  bool anyWithin(const Eigen::Vector3d& p, double radius) const {
+    const int reach = static_cast<int>(std::ceil(radius / cell_));
+    const Eigen::Vector3i c = cellOf(p, cell_);
+    for (int dx = -reach; dx <= reach; ++dx) {
+      for (int dy = -reach; dy <= reach; ++dy) {
+        for (int dz = -reach; dz <= reach; ++dz) {
+          const auto it = cells_.find(c + Eigen::Vector3i(dx, dy, dz));
+          if (it == cells_.end()) continue;
+          for (const auto& q : it->second) {
+            if ((q - p).norm() < radius) return true;
+          }
+        }
+      }
+    }
+    return false;
+  }
+
+ private:
+  double cell_;
+  CellMap<std::vector<Eigen::Vector3d>> cells_;
+};
+
+Eigen::Isometry3d isometry(const Pose& p) {
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.linear() = p.orientation.toRotationMatrix();
+  t.translation() = p.position;
+  return t;
+}
+
+}  // namespace
+
+std::vector<PointPair> besidePoints(const ControlPointSelection& cps, const Trajectory& slam,
+                                    const Trajectory& fused, double beside, double above) {
+  std::vector<PointPair> out;
+  if (beside <= 0.0 && above <= 0.0) return out;
+  // Cross-sections at every control point at least `spacing` of path from the previous one:
+  // refined control points may lie close together, and sections closer than their size would
+  // make flat tetrahedra. The lateral points alternate up and down by a quarter of the section
+  // size, so that no four neighbours lie in one plane (a flat road would otherwise give flat
+  // tetrahedra whose transforms amplify every small difference of the targets).
+  const double size = std::max(beside, above);
+  const double spacing = 0.8 * size;
+  const double stagger = 0.25 * size;
+  const std::vector<double> arc = arcLength(positionsOf(slam));
+  const PositionGrid grid(slam, std::max(5.0, 0.5 * size));
+  double last = -std::numeric_limits<double>::infinity();
+  int section = 0;
+  for (std::size_t c = 0; c < cps.points.size(); ++c) {
+    const auto& cp = cps.points[c];
+    // The first and last control points always get a section: the rotation at the ends of the
+    // drive has nothing beyond it to be interpolated from.
+    const bool end = c + 1 == cps.points.size();
+    if (arc[cp.pose_index] - last < (end ? 0.3 * spacing : spacing)) continue;
+    last = arc[cp.pose_index];
+    const double z = (section++ % 2 == 0) ? stagger : -stagger;
+    std::vector<Eigen::Vector3d> offsets;
+    if (beside > 0.0) offsets = {{0.0, beside, z}, {0.0, -beside, -z}};
+    if (above > 0.0) offsets.push_back({0.0, 0.0, above});
+    const Eigen::Isometry3d s = isometry(slam[cp.pose_index]);
+    const Eigen::Isometry3d f = isometry(fused[cp.pose_index]);
+    for (const auto& o : offsets) {
+      const Eigen::Vector3d source = s * o;
+      if (grid.anyWithin(source, 0.7 * o.norm())) continue;
+      out.push_back({source, f * o, cp.pose_index});
+    }
+  }
+  return out;
+}
+
+std::vector<std::size_t> foldingPoints(const RubberSheet& sheet,
+                                       const std::vector<PointPair>& pairs,
+                                       const Eigen::Isometry3d& input_to_source) {
+  constexpr double kSame = 1e-6;  // m
+  CellMap<std::vector<std::size_t>> where;
+  std::vector<Eigen::Vector3d> moved(pairs.size());
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    moved[i] = input_to_source * pairs[i].source;
+    where[cellOf(moved[i], 1.0)].push_back(i);
+  }
+  std::set<std::size_t> bad;
+  const auto& tets = sheet.tetrahedra();
+  for (std::size_t t = 0; t < tets.size(); ++t) {
+    const double det = sheet.affineAt({static_cast<int>(t), false}).leftCols<3>().determinant();
+    if (det >= 0.2) continue;
+    for (int v : tets[t]) {
+      const Eigen::Vector3d& s = sheet.sources()[static_cast<std::size_t>(v)];
+      const auto it = where.find(cellOf(s, 1.0));
+      if (it == where.end()) continue;
+      for (std::size_t i : it->second) {
+        if ((moved[i] - s).norm() < kSame) bad.insert(i);
+      }
+    }
+  }
+  return {bad.begin(), bad.end()};
+}
+
+}  // namespace flexcloud

@@ -1,0 +1,516 @@
+#include "flexcloud/fusion.h"
+
+#include <ceres/ceres.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <memory>
+
+#include "flexcloud/trajectory.h"
+
+namespace flexcloud {
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+constexpr std::size_t kMaxKeyframes = 1500;
+constexpr double kRejectWeight = 0.1;     // a fix whose final weight is below this is an outlier
+constexpr double kUnknownStdStart = 1.0;  // m, first guess for fixes without a std-dev
+
+using Vec3 = Eigen::Vector3d;
+
+/// The SLAM noise model in SI units (per metre of path).
+struct Noise {
+  double rotation;     ///< rad / sqrt(m)
+  double translation;  ///< m / sqrt(m)
+  double rate;         ///< change of the rotation rate: rad/m / sqrt(m)
+  double scale;        ///< change of the scale error: 1 / sqrt(m)
+};
+
+Noise noiseOf(const Params& p) {
+  const double per_sqrt_km = 1.0 / std::sqrt(1000.0);
+  return {p.slam_rotation_noise * kDeg * per_sqrt_km, p.slam_translation_noise * per_sqrt_km,
+          p.slam_drift_noise * kDeg / 1000.0 * per_sqrt_km,
+          p.slam_scale_noise / 100.0 * per_sqrt_km};
+}
+
+Eigen::Isometry3d isometry(const Pose& p) {
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.linear() = p.orientation.toRotationMatrix();
+  t.translation() = p.position;
+  return t;
+}
+
+/// The SLAM pose at stamp t, interpolated between its neighbours (t within the poses' span).
+Eigen::Isometry3d slamAt(const Trajectory& poses, double t) {
+  const auto it = std::lower_bound(poses.begin(), poses.end(), t,
+                                   [](const Pose& p, double s) { return p.stamp < s; });
+  if (it == poses.begin()) return isometry(poses.front());
+  if (it == poses.end()) return isometry(poses.back());
+  const Pose& b = *it;
+  const Pose& a = *(it - 1);
+  const double f = (t - a.stamp) / std::max(1e-12, b.stamp - a.stamp);
+  Eigen::Isometry3d out = Eigen::Isometry3d::Identity();
+  out.linear() = a.orientation.slerp(f, b.orientation).toRotationMatrix();
+  out.translation() = a.position + f * (b.position - a.position);
+  return out;
+}
+
+/// Keyframes every `spacing` metres of SLAM path (grown so there are at most kMaxKeyframes),
+/// the first and last pose always; returns pose indices.
+std::vector<std::size_t> chooseKeyframes(const Trajectory& poses, double spacing) {
+  const std::vector<double> arc = arcLength(positionsOf(poses));
+  spacing = std::max(spacing, arc.back() / static_cast<double>(kMaxKeyframes));
+  std::vector<std::size_t> out{0};
+  for (std::size_t i = 1; i + 1 < poses.size(); ++i) {
+    if (arc[i] - arc[out.back()] >= spacing) out.push_back(i);
+  }
+  if (poses.size() > 1) out.push_back(poses.size() - 1);
+  return out;
+}
+
+/// Geman-McClure on a squared, normalised residual s: rho = c^2 s / (c^2 + s). It redescends:
+/// a residual far beyond c adds a bounded cost and no pull.
+class GemanMcClure : public ceres::LossFunction {
+ public:
+  explicit GemanMcClure(double c) : c2_(c * c) {}
+  void Evaluate(double s, double rho[3]) const override {
+    const double d = c2_ + s;
+    rho[0] = c2_ * s / d;
+    rho[1] = c2_ * c2_ / (d * d);
+    rho[2] = -2.0 * c2_ * c2_ / (d * d * d);
+  }
+  double weight(double s) const { return c2_ * c2_ / ((c2_ + s) * (c2_ + s)); }
+
+ private:
+  double c2_;
+};
+
+template <typename T>
+using Vec3T = Eigen::Matrix<T, 3, 1>;
+
+/// SLAM motion between keyframes a and b, with a's drift state: the rotation error grows at
+/// rate w (rad/m) and the translation is off by the scale error s.
+struct OdometryFactor {
+  Vec3 dp;
+  Eigen::Quaterniond dq;
+  double length, sigma_t, sigma_r;
+
+  template <typename T>
+  bool operator()(const T* qa, const T* pa, const T* wa, const T* sa, const T* qb, const T* pb,
+                  T* r) const {
+    const Eigen::Map<const Eigen::Quaternion<T>> Qa(qa), Qb(qb);
+    const Eigen::Map<const Vec3T<T>> Pa(pa), Pb(pb), Wa(wa);
+    const Vec3T<T> rel = Qa.conjugate() * (Pb - Pa);
+    const Vec3T<T> rt = (rel - (T(1) + sa[0]) * dp.cast<T>()) / T(sigma_t);
+    const Eigen::Quaternion<T> e = dq.cast<T>().conjugate() * Qa.conjugate() * Qb;
+    Vec3T<T> angle = T(2) * e.vec();
+    if (e.w() < T(0)) angle = -angle;
+    const Vec3T<T> rr = (angle - Wa * T(length)) / T(sigma_r);
+    for (int i = 0; i < 3; ++i) r[i] = rt[i], r[3 + i] = rr[i];
+    return true;
+  }
+};
+
+/// The drift state changes slowly along the path.
+struct DriftFactor {
+  double sigma_w, sigma_s;
+  template <typename T>
+  bool operator()(const T* wa, const T* sa, const T* wb, const T* sb, T* r) const {
+    for (int i = 0; i < 3; ++i) r[i] = (wb[i] - wa[i]) / T(sigma_w);
+    r[3] = (sb[0] - sa[0]) / T(sigma_s);
+    return true;
+  }
+};
+
+/// A weak prior that keeps a value near zero where nothing else determines it.
+struct ZeroPrior {
+  int n;
+  double sigma;
+  template <typename T>
+  bool operator()(const T* x, T* r) const {
+    for (int i = 0; i < n; ++i) r[i] = x[i] / T(sigma);
+    return true;
+  }
+};
+
+/// A fix: the antenna of the pose at the fix's stamp, reached from keyframe a by the SLAM's
+/// motion (scaled by a's scale error), the lever arm, and the clock offset dt times the velocity.
+struct GnssFactor {
+  Vec3 offset;    ///< SLAM translation from keyframe a to the fix's stamp, in a's frame
+  Vec3 antenna;   ///< lever arm rotated into a's frame at the fix's stamp
+  Vec3 velocity;  ///< SLAM velocity at the fix's stamp, in a's frame, m/s
+  Vec3 fix;
+  const Vec3* sigma = nullptr;  ///< the std-dev it is weighted with now (changes by stage)
+
+  template <typename T>
+  bool operator()(const T* qa, const T* pa, const T* sa, const T* dt, T* r) const {
+    const Eigen::Map<const Eigen::Quaternion<T>> Qa(qa);
+    const Eigen::Map<const Vec3T<T>> Pa(pa);
+    const Vec3T<T> local =
+        (T(1) + sa[0]) * offset.cast<T>() + antenna.cast<T>() + velocity.cast<T>() * dt[0];
+    const Vec3T<T> at = Pa + Qa * local;
+    for (int i = 0; i < 3; ++i) r[i] = (at[i] - T(fix[i])) / T((*sigma)[i]);
+    return true;
+  }
+};
+
+/// The state of one keyframe: pose in ENU and drift.
+struct Keyframe {
+  std::size_t pose = 0;
+  double q[4];  // x y z w
+  double p[3];
+  double w[3] = {0.0, 0.0, 0.0};
+  double s = 0.0;
+  Eigen::Isometry3d slam;
+};
+
+/// One fix prepared for the graph.
+struct Fix {
+  std::size_t input = 0;     ///< index into the GNSS list
+  std::size_t keyframe = 0;  ///< index into the keyframes
+  GnssFactor factor;
+  bool known_std = true;
+  Vec3 own = Vec3::Zero();    ///< its std-dev: reported, or estimated where not given
+  Vec3 sigma = Vec3::Zero();  ///< what it is weighted with in the current stage
+};
+
+class Fusion {
+ public:
+  Fusion(const Trajectory& poses, const std::vector<GnssPoint>& gnss, const Params& params,
+         const CancelToken& cancel)
+      : poses_(poses), gnss_(gnss), params_(params), cancel_(cancel), noise_(noiseOf(params)) {}
+
+  FusionResult run(const Eigen::Isometry3d& T_enu_map) {
+    const auto t0 = std::chrono::steady_clock::now();
+    out_.fixes.resize(gnss_.size());
+    out_.lever_arm = Vec3(params_.lever_arm_x, params_.lever_arm_y, params_.lever_arm_z);
+    makeKeyframes(T_enu_map);
+    selectFixes();
+    if (fixes_.size() < 3) {
+      throw Error("fusion: " + std::to_string(fixes_.size()) +
+                  " fixes can take part (std-dev within the threshold, inside the poses' time "
+                  "span and no excluded range), at least 3 are needed");
+    }
+    for (auto& f : fixes_) f.factor.sigma = &f.sigma;  // fixes_ stays put from here on
+    loss_ = std::make_unique<GemanMcClure>(params_.outlier_threshold);
+    solveStages();
+    collect();
+    out_.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return out_;
+  }
+
+ private:
+  void makeKeyframes(const Eigen::Isometry3d& T_enu_map) {
+    for (std::size_t i : chooseKeyframes(poses_, params_.fusion_spacing)) {
+      Keyframe k;
+      k.pose = i;
+      k.slam = isometry(poses_[i]);
+      const Eigen::Isometry3d t = T_enu_map * k.slam;
+      const Eigen::Quaterniond q(t.linear());
+      k.q[0] = q.x(), k.q[1] = q.y(), k.q[2] = q.z(), k.q[3] = q.w();
+      for (int a = 0; a < 3; ++a) k.p[a] = t.translation()(a);
+      keyframes_.push_back(k);
+    }
+    out_.keyframes = keyframes_.size();
+  }
+
+  bool excluded(double stamp) const {
+    return std::any_of(params_.excluded_ranges.begin(), params_.excluded_ranges.end(),
+                       [&](const TimeRange& r) { return r.contains(stamp); });
+  }
+
+  /// Decides which fixes take part, and ties each to the keyframe at or before its stamp.
+  void selectFixes() {
+    const double first = poses_.front().stamp, last = poses_.back().stamp;
+    std::size_t k = 0;
+    for (std::size_t j = 0; j < gnss_.size(); ++j) {
+      const GnssPoint& g = gnss_[j];
+      FixOutcome& o = out_.fixes[j];
+      o.stamp = g.stamp;
+      o.position = g.position;
+      o.residual = std::numeric_limits<double>::quiet_NaN();
+      const bool known = g.std_dev.allFinite();
+      if (g.stamp < first || g.stamp > last) {
+        o.verdict = FixVerdict::kOutsidePoses;
+      } else if (excluded(g.stamp)) {
+        o.verdict = FixVerdict::kExcluded;
+      } else if (known && g.stdDev3d() > params_.stddev_threshold) {
+        o.verdict = FixVerdict::kAboveThreshold;
+      } else {
+        while (k + 1 < keyframes_.size() && poses_[keyframes_[k + 1].pose].stamp <= g.stamp) ++k;
+        fixes_.push_back(makeFix(j, k, known));
+      }
+    }
+  }
+
+  Fix makeFix(std::size_t j, std::size_t k, bool known) const {
+    const Eigen::Isometry3d from = keyframes_[k].slam.inverse();
+    const double t = gnss_[j].stamp;
+    const Eigen::Isometry3d at = from * slamAt(poses_, t);
+    const double h = 0.05;
+    const Vec3 velocity = ((from * slamAt(poses_, t + h)).translation() -
+                           (from * slamAt(poses_, t - h)).translation()) /
+                          (2.0 * h);
+    Fix f;
+    f.input = j;
+    f.keyframe = k;
+    f.known_std = known;
+    f.factor.offset = at.translation();
+    f.factor.antenna = at.linear() * out_.lever_arm;
+    f.factor.velocity = velocity;
+    f.factor.fix = gnss_[j].position;
+    f.own = sigmaOf(gnss_[j].std_dev, kUnknownStdStart, kUnknownStdStart);
+    f.sigma = f.own;
+    return f;
+  }
+
+  Vec3 sigmaOf(const Vec3& reported, double unknown_h, double unknown_v) const {
+    const Vec3 s = reported.allFinite() ? reported : Vec3(unknown_h, unknown_h, unknown_v);
+    return s.cwiseMax(params_.gnss_std_floor);
+  }
+
+  /// The graph with every `stride`-th fix (the keyframes and the SLAM in full).
+  std::unique_ptr<ceres::Problem> makeProblem(std::size_t stride) {
+    ceres::Problem::Options options;
+    options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    auto problem = std::make_unique<ceres::Problem>(options);
+    for (auto& k : keyframes_) problem->AddParameterBlock(k.q, 4, &quaternion_);
+    addOdometry(*problem);
+    Keyframe& k0 = keyframes_.front();
+    problem->AddResidualBlock(
+        new ceres::AutoDiffCostFunction<ZeroPrior, 3, 3>(new ZeroPrior{3, 1e-3}), nullptr, k0.w);
+    problem->AddResidualBlock(
+        new ceres::AutoDiffCostFunction<ZeroPrior, 1, 1>(new ZeroPrior{1, 0.05}), nullptr, &k0.s);
+    problem->AddParameterBlock(&dt_, 1);
+    if (params_.max_time_offset > 0.0) {
+      // A clock offset moves every fix along the track: at constant speed that is a slide of
+      // the trajectory along itself, which the fixes cannot tell apart; only speed changes
+      // show it. The weak prior keeps it at zero where nothing says otherwise.
+      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<ZeroPrior, 1, 1>(
+                                    new ZeroPrior{1, params_.max_time_offset}),
+                                nullptr, &dt_);
+      problem->SetParameterLowerBound(&dt_, 0, -params_.max_time_offset);
+      problem->SetParameterUpperBound(&dt_, 0, params_.max_time_offset);
+    } else {
+      problem->SetParameterBlockConstant(&dt_);
+    }
+    for (std::size_t j = 0; j < fixes_.size(); j += stride) {
+      Fix& f = fixes_[j];
+      Keyframe& k = keyframes_[f.keyframe];
+      problem->AddResidualBlock(
+          new ceres::AutoDiffCostFunction<GnssFactor, 3, 4, 3, 1, 1>(new GnssFactor(f.factor)),
+          loss_.get(), k.q, k.p, &k.s, &dt_);
+    }
+    return problem;
+  }
+
+  void addOdometry(ceres::Problem& problem) {
+    for (std::size_t i = 0; i + 1 < keyframes_.size(); ++i) {
+      Keyframe& a = keyframes_[i];
+      Keyframe& b = keyframes_[i + 1];
+      const Eigen::Isometry3d rel = a.slam.inverse() * b.slam;
+      const double d = std::max(0.01, rel.translation().norm());
+      OdometryFactor f{rel.translation(), Eigen::Quaterniond(rel.linear()), d,
+                       noise_.translation * std::sqrt(d) + 1e-3,
+                       noise_.rotation * std::sqrt(d) + 1e-6};
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<OdometryFactor, 6, 4, 3, 3, 1, 4, 3>(
+                                   new OdometryFactor(f)),
+                               nullptr, a.q, a.p, a.w, &a.s, b.q, b.p);
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<DriftFactor, 4, 3, 1, 3, 1>(new DriftFactor{
+              noise_.rate * std::sqrt(d) + 1e-12, noise_.scale * std::sqrt(d) + 1e-12}),
+          nullptr, a.w, &a.s, b.w, &b.s);
+    }
+  }
+
+  /// Squared normalised residual of a fix at the current estimate.
+  double squaredResidual(const Fix& f) const {
+    const Keyframe& k = keyframes_[f.keyframe];
+    double r[3];
+    f.factor(k.q, k.p, &k.s, &dt_, r);
+    return r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+  }
+
+  /// Graduated non-convexity on the GNSS weights: every fix is first weighted as if its
+  /// std-dev were at least a `floor` of metres, at which the SLAM's shape holds the trajectory
+  /// and a slowly varying GNSS bias cannot bend it; the floor shrinks by 3 stage by stage down
+  /// to the fixes' own std-devs, while the redescending loss (scale outlier_threshold, in units
+  /// of the current std-dev) drops the fixes that stay far off. The std-devs of fixes without
+  /// one are then estimated from the inliers and the last stages solved again.
+  void solveStages() {
+    std::vector<double> r0;
+    for (const auto& f : fixes_) r0.push_back(residualOf(f).norm());
+    std::nth_element(r0.begin(), r0.begin() + r0.size() / 2, r0.end());
+    double floor = std::max(1.0, r0[r0.size() / 2]);
+    // The stages decide which fixes are outliers; a few fixes per keyframe decide it as well as
+    // all of them, at a fraction of the time on long drives. The last stages use every fix.
+    const std::size_t stride = std::max<std::size_t>(1, fixes_.size() / (3 * keyframes_.size()));
+    {
+      const auto coarse = makeProblem(stride);
+      for (; floor > params_.gnss_std_floor; floor /= 5.0) solveAt(*coarse, floor, 10);
+    }
+    const auto full = makeProblem(1);
+    solveAt(*full, 0.0, 10);
+    for (int round = 0; round < 3 && estimateUnknownStd(); ++round) solveAt(*full, 0.0, 20);
+  }
+
+  void solveAt(ceres::Problem& problem, double floor, int iterations) {
+    cancel_.check("fusion");
+    for (auto& f : fixes_) f.sigma = f.own.cwiseMax(floor);
+    ceres::Solver::Options o;
+    o.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+    o.max_num_iterations = iterations;
+    o.num_threads = 2;
+    o.logging_type = ceres::SILENT;
+    o.function_tolerance = 1e-7;
+    ceres::Solver::Summary summary;
+    ceres::Solve(o, &problem, &summary);
+    ++out_.stages;
+  }
+
+  /// Sets the std-dev of the fixes without one to the robust spread of their inliers'
+  /// residuals; true when it changed by more than a fifth (solve again).
+  bool estimateUnknownStd() {
+    std::vector<double> h, v;
+    for (const auto& f : fixes_) {
+      if (f.known_std || weightOf(f) < 0.5) continue;
+      const Vec3 e = residualOf(f);
+      h.push_back(std::hypot(e.x(), e.y()) / std::sqrt(2.0));
+      v.push_back(std::abs(e.z()));
+    }
+    if (h.size() < 10) return false;
+    auto robust = [](std::vector<double>& x) {  // median absolute value as a 1-sigma
+      std::nth_element(x.begin(), x.begin() + x.size() / 2, x.end());
+      return 1.4826 * x[x.size() / 2];
+    };
+    const double sh = std::max(params_.gnss_std_floor, robust(h));
+    const double sv = std::max(params_.gnss_std_floor, robust(v));
+    const bool changed = std::abs(sh - unknown_h_) > 0.2 * unknown_h_ ||
+                         std::abs(sv - unknown_v_) > 0.2 * unknown_v_;
+    unknown_h_ = sh, unknown_v_ = sv;
+    out_.estimated_std_h = sh;
+    out_.estimated_std_v = sv;
+    for (auto& f : fixes_) {
+      if (!f.known_std) f.own = sigmaOf(Vec3::Constant(std::nan("")), sh, sv);
+    }
+    return changed;
+  }
+
+  /// Residual of a fix in metres (ENU).
+  Vec3 residualOf(const Fix& f) const {
+    const Keyframe& k = keyframes_[f.keyframe];
+    double r[3];
+    f.factor(k.q, k.p, &k.s, &dt_, r);
+    return Vec3(r[0], r[1], r[2]).cwiseProduct(f.sigma);
+  }
+
+  double weightOf(const Fix& f) const {
+    return GemanMcClure(params_.outlier_threshold).weight(squaredResidual(f));
+  }
+
+  Eigen::Isometry3d keyframePose(const Keyframe& k) const {
+    Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+    t.linear() = Eigen::Quaterniond(k.q[3], k.q[0], k.q[1], k.q[2]).normalized().toRotationMatrix();
+    t.translation() = Vec3(k.p[0], k.p[1], k.p[2]);
+    return t;
+  }
+
+  void collect() {
+    std::vector<double> sigmas;
+    for (const auto& f : fixes_) {
+      FixOutcome& o = out_.fixes[f.input];
+      o.residual = residualOf(f).norm();
+      o.weight = weightOf(f);
+      o.verdict = o.weight < kRejectWeight ? FixVerdict::kOutlier : FixVerdict::kUsed;
+      if (o.verdict == FixVerdict::kUsed) sigmas.push_back(f.sigma.x());
+    }
+    for (const auto& o : out_.fixes) {
+      switch (o.verdict) {
+        case FixVerdict::kUsed:
+          ++out_.used;
+          break;
+        case FixVerdict::kOutlier:
+          ++out_.outliers;
+          break;
+        case FixVerdict::kAboveThreshold:
+          ++out_.above_threshold;
+          break;
+        case FixVerdict::kExcluded:
+          ++out_.excluded;
+          break;
+        case FixVerdict::kOutsidePoses:
+          ++out_.outside;
+          break;
+      }
+    }
+    if (!sigmas.empty()) {
+      std::nth_element(sigmas.begin(), sigmas.begin() + sigmas.size() / 2, sigmas.end());
+      out_.median_std_h = sigmas[sigmas.size() / 2];
+    }
+    if (unknown_h_ == kUnknownStdStart) {
+      out_.estimated_std_h = out_.estimated_std_v = std::numeric_limits<double>::quiet_NaN();
+    }
+    out_.time_offset = dt_;
+    fusedPoses();
+  }
+
+  /// Every pose: its keyframe's fused pose, moved by the SLAM's motion since (scale applied).
+  void fusedPoses() {
+    out_.poses.resize(poses_.size());
+    std::size_t k = 0;
+    for (std::size_t i = 0; i < poses_.size(); ++i) {
+      while (k + 1 < keyframes_.size() && keyframes_[k + 1].pose <= i) ++k;
+      const Keyframe& key = keyframes_[k];
+      Eigen::Isometry3d rel = key.slam.inverse() * isometry(poses_[i]);
+      rel.translation() *= 1.0 + key.s;
+      const Eigen::Isometry3d t = keyframePose(key) * rel;
+      Pose& p = out_.poses[i];
+      p.stamp = poses_[i].stamp;
+      p.position = t.translation();
+      p.orientation = Eigen::Quaterniond(t.linear()).normalized();
+    }
+  }
+
+  const Trajectory& poses_;
+  const std::vector<GnssPoint>& gnss_;
+  const Params& params_;
+  const CancelToken& cancel_;
+  Noise noise_;
+  std::vector<Keyframe> keyframes_;
+  std::vector<Fix> fixes_;
+  double dt_ = 0.0;
+  double unknown_h_ = kUnknownStdStart, unknown_v_ = kUnknownStdStart;
+  std::unique_ptr<GemanMcClure> loss_;
+  ceres::EigenQuaternionManifold quaternion_;
+  FusionResult out_;
+};
+
+}  // namespace
+
+std::string toString(FixVerdict v) {
+  switch (v) {
+    case FixVerdict::kUsed:
+      return "used";
+    case FixVerdict::kOutlier:
+      return "outlier";
+    case FixVerdict::kAboveThreshold:
+      return "above_std_threshold";
+    case FixVerdict::kExcluded:
+      return "excluded_range";
+    case FixVerdict::kOutsidePoses:
+      return "outside_poses";
+  }
+  return "?";
+}
+
+FusionResult fuseTrajectory(const Trajectory& poses, const std::vector<GnssPoint>& gnss,
+                            const Eigen::Isometry3d& T_enu_map, const Params& params,
+                            const CancelToken& cancel) {
+  if (poses.size() < 2) throw Error("fusion: at least 2 poses are needed");
+  return Fusion(poses, gnss, params, cancel).run(T_enu_map);
+}
+
+}  // namespace flexcloud

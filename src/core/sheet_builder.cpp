@@ -1,0 +1,157 @@
+#include "sheet_builder.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "flexcloud/trajectory.h"
+
+namespace flexcloud {
+namespace {
+
+constexpr double kMinRefineDeviation = 1e-3;  // m: a deviation below this needs no control point
+
+/// Deviation (m) of each usable pose, warped by the sheet, from its GNSS; NaN elsewhere.
+std::vector<double> sheetDeviation(const RubberSheet& sheet, const Trajectory& poses,
+                                   const std::vector<std::optional<GnssPoint>>& gnss,
+                                   const std::vector<bool>& usable) {
+  std::vector<double> deviation(poses.size(), std::numeric_limits<double>::quiet_NaN());
+  int hint = 0;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    if (!usable[i]) continue;
+    const auto loc = sheet.locateFrom(poses[i].position, hint);
+    if (!loc.outside) hint = loc.tet;
+    deviation[i] =
+        (RubberSheet::apply(sheet.affineAt(loc), poses[i].position) - gnss[i]->position).norm();
+  }
+  return deviation;
+}
+
+/// Error-driven refinement of `cps` up to `total` control points (Params::refine_fraction).
+void refineControlPoints(ControlPointSelection& cps, const Trajectory& poses,
+                         const std::vector<std::optional<GnssPoint>>& gnss,
+                         const std::vector<bool>& usable, const Eigen::Isometry3d& T_enu_map,
+                         const Cuboid& cuboid, std::size_t total) {
+  std::size_t first = poses.size(), last = 0;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    if (gnss[i]) first = std::min(first, i), last = std::max(last, i);
+  }
+  const std::vector<double> arc = arcLength(positionsOf(poses));
+  // A refinement keeps 1/20 of the even spacing (at the full count) of path from its neighbours:
+  // enough that a standstill gathers no control points, small enough not to cost accuracy
+  // (a quarter of the spacing raised the real drive's MAX at 50 control points from 1.4 to 13 m).
+  const double separation =
+      0.05 * (arc[last] - arc[first]) / static_cast<double>(std::max<std::size_t>(1, total - 1));
+  while (cps.points.size() < total) {
+    const auto sheet = buildSheet(cps, {}, T_enu_map, cuboid);
+    const std::vector<double> deviation = sheetDeviation(*sheet, poses, gnss, usable);
+    const std::size_t have = cps.points.size();
+    const std::size_t round = std::min(total - have, std::max<std::size_t>(1, have / 4));
+    const auto picks = pickRefinements(cps, deviation, arc, separation, round, kMinRefineDeviation);
+    if (picks.empty()) break;
+    addControlPoints(cps, picks, poses, gnss);
+  }
+}
+
+}  // namespace
+
+Cuboid makeCuboid(const Trajectory& aligned, const std::vector<std::optional<GnssPoint>>& gnss,
+                  const Params& params) {
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d hi = -lo;
+  for (std::size_t i = 0; i < aligned.size(); ++i) {
+    lo = lo.cwiseMin(aligned[i].position);
+    hi = hi.cwiseMax(aligned[i].position);
+    if (gnss[i]) {
+      lo = lo.cwiseMin(gnss[i]->position);
+      hi = hi.cwiseMax(gnss[i]->position);
+    }
+  }
+  const Eigen::Vector3d extent = hi - lo;
+  const Eigen::Vector3d frac(params.margin_x, params.margin_y, params.margin_z);
+  const Eigen::Vector3d margin = frac.cwiseProduct(extent).cwiseMax(params.margin_min);
+  lo -= margin;
+  hi += margin;
+  std::array<Eigen::Vector3d, 8> corners;
+  for (int c = 0; c < 8; ++c) {
+    corners[c] = Eigen::Vector3d((c & 1) ? hi.x() : lo.x(), (c & 2) ? hi.y() : lo.y(),
+                                 (c & 4) ? hi.z() : lo.z());
+  }
+  return corners;
+}
+
+std::shared_ptr<const RubberSheet> buildSheet(const ControlPointSelection& cps,
+                                              const std::vector<PointPair>& extra,
+                                              const Eigen::Isometry3d& T_enu_map,
+                                              const Cuboid& cuboid) {
+  // The triangulation lives in the aligned frame, where the cuboid is axis-aligned.
+  std::vector<Eigen::Vector3d> src;
+  std::vector<Eigen::Vector3d> dst;
+  for (const auto& cp : cps.points) {
+    src.push_back(T_enu_map * cp.source);
+    dst.push_back(cp.target);
+  }
+  for (const auto& e : extra) {
+    src.push_back(T_enu_map * e.source);
+    dst.push_back(e.target);
+  }
+  // The corners keep their rigidly aligned position, and so does everything beyond them. (Moving
+  // them with a global affine fit was tried: on simulated drives it multiplied the map error,
+  // since the vertical shear fitted on a near-flat drive grows toward the distant corners.)
+  for (const auto& c : cuboid) {
+    src.push_back(c);
+    dst.push_back(c);
+  }
+  Affine34 outside;
+  outside << T_enu_map.linear(), T_enu_map.translation();
+  return std::make_shared<RubberSheet>(src, dst, outside, T_enu_map);
+}
+
+ControlPointSelection chooseControlPoints(const Trajectory& poses,
+                                          const std::vector<std::optional<GnssPoint>>& targets,
+                                          const std::vector<bool>& usable,
+                                          const Eigen::Isometry3d& T_enu_map, const Cuboid& cuboid,
+                                          const Params& params) {
+  const auto total = static_cast<std::size_t>(params.control_points);
+  const auto refined = static_cast<std::size_t>(std::lround(params.refine_fraction * total));
+  Params even = params;
+  even.control_points = static_cast<int>(std::max<std::size_t>(4, total - refined));
+  ControlPointSelection cps = selectControlPoints(poses, targets, even);
+  cps.requested = total;
+  if (cps.points.size() < 4) {
+    std::size_t with_target = 0;
+    for (const auto& t : targets) with_target += t.has_value() ? 1 : 0;
+    throw Error("control points: " + std::to_string(cps.points.size()) + " usable of " +
+                std::to_string(cps.requested) + " requested (" + std::to_string(with_target) +
+                " poses with GNSS, std-dev threshold " + std::to_string(params.stddev_threshold) +
+                " m); at least 4 are needed");
+  }
+  refineControlPoints(cps, poses, targets, usable, T_enu_map, cuboid, total);
+  return cps;
+}
+
+SheetWithBeside buildSheetWithBeside(const ControlPointSelection& cps, const Trajectory& slam,
+                                     const Trajectory& fused, const Eigen::Isometry3d& T_enu_map,
+                                     const Cuboid& cuboid, const Params& params) {
+  SheetWithBeside out;
+  out.beside = besidePoints(cps, slam, fused, params.beside_distance, params.above_height);
+  for (int round = 0;; ++round) {
+    out.sheet = buildSheet(cps, out.beside, T_enu_map, cuboid);
+    const std::vector<std::size_t> bad = foldingPoints(*out.sheet, out.beside, T_enu_map);
+    if (bad.empty() || round == 3) break;
+    std::vector<PointPair> kept;
+    std::size_t b = 0;
+    for (std::size_t i = 0; i < out.beside.size(); ++i) {
+      if (b < bad.size() && bad[b] == i) {
+        ++b;
+        continue;
+      }
+      kept.push_back(out.beside[i]);
+    }
+    out.folding += bad.size();
+    out.beside.swap(kept);
+  }
+  return out;
+}
+
+}  // namespace flexcloud

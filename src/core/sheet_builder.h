@@ -1,0 +1,53 @@
+#pragma once
+// The rubber sheet of a result: the enclosing cuboid, the control points on the trajectory
+// (spread by arc length, then refined where the sheet deviates most from its targets), the
+// points beside and above them, and the sheet itself. Private to the core.
+
+#include <array>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "flexcloud/beside_points.h"
+#include "flexcloud/control_points.h"
+#include "flexcloud/params.h"
+#include "flexcloud/rubber_sheet.h"
+
+namespace flexcloud {
+
+using Cuboid = std::array<Eigen::Vector3d, 8>;
+
+/// The corners of the axis-aligned box around the aligned trajectory and the targets, grown by
+/// the margins.
+Cuboid makeCuboid(const Trajectory& aligned, const std::vector<std::optional<GnssPoint>>& targets,
+                  const Params& params);
+
+/// The sheet through the control points, the extra point pairs and the cuboid corners (which
+/// keep their rigidly aligned position). Triangulated in the aligned frame.
+std::shared_ptr<const RubberSheet> buildSheet(const ControlPointSelection& cps,
+                                              const std::vector<PointPair>& extra,
+                                              const Eigen::Isometry3d& T_enu_map,
+                                              const Cuboid& cuboid);
+
+/// params.control_points control points on the trajectory: (1 - refine_fraction) of them
+/// spread evenly by arc length over the poses with a target, the rest by error-driven
+/// refinement against the targets. usable[i]: pose i may be a control point. Throws Error when
+/// fewer than 4 are usable.
+ControlPointSelection chooseControlPoints(const Trajectory& poses,
+                                          const std::vector<std::optional<GnssPoint>>& targets,
+                                          const std::vector<bool>& usable,
+                                          const Eigen::Isometry3d& T_enu_map, const Cuboid& cuboid,
+                                          const Params& params);
+
+/// The sheet with points beside and above the control points (besidePoints()); points that
+/// fold the sheet are left out, and the sheet built again, up to three times.
+struct SheetWithBeside {
+  std::shared_ptr<const RubberSheet> sheet;
+  std::vector<PointPair> beside;
+  std::size_t folding = 0;  ///< beside points left out because they folded the sheet
+};
+SheetWithBeside buildSheetWithBeside(const ControlPointSelection& cps, const Trajectory& slam,
+                                     const Trajectory& fused, const Eigen::Isometry3d& T_enu_map,
+                                     const Cuboid& cuboid, const Params& params);
+
+}  // namespace flexcloud

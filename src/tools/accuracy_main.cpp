@@ -1,0 +1,156 @@
+// flexcloud_accuracy: the accuracy study of doc/ACCURACY.md. Simulated drives (RTK and urban
+// GNSS, loop and open route) are georeferenced by the published method and by flexcloud and
+// judged against the simulator's ground truth: map RMSE by distance from the route, trajectory
+// RMSE. Prints a markdown table.
+//   flexcloud_accuracy [--seeds 1,2,3] [--map-points N] [--scenarios loop_rtk,open_urban,...]
+//                      [--set KEY=VALUE ...]
+
+#include <cstdio>
+#include <iostream>
+#include <sstream>
+
+#include "cli.h"
+#include "flexcloud/georeference.h"
+#include "flexcloud/sim/scenarios.h"
+#include "flexcloud/sim/truth_metrics.h"
+
+namespace {
+
+using namespace flexcloud;
+
+constexpr const char* kUsage = R"(usage: flexcloud_accuracy [options]
+Georeferences simulated drives with the published method and with flexcloud and prints their
+errors against the ground truth (doc/ACCURACY.md).
+  --seeds N[,N...]          simulator seeds (default 1,2,3)
+  --map-points N            map points per drive (default 100000)
+  --scenarios A[,B...]      loop_rtk, open_rtk, loop_urban, open_urban, open_urban_end,
+                            loop_urban_nocov, loop_offset_lever (default: the first five)
+  --control-points N        (default 200)
+  --set KEY=VALUE           a flexcloud parameter (repeatable)
+  --only-flexcloud          leave out the published method
+  -h, --help
+)";
+
+struct Options {
+  std::vector<std::uint64_t> seeds{1, 2, 3};
+  std::size_t map_points = 100000;
+  std::vector<std::string> scenarios{"loop_rtk", "open_rtk", "loop_urban", "open_urban",
+                                     "open_urban_end"};
+  int control_points = 200;
+  std::vector<std::pair<std::string, std::string>> sets;
+  bool published = true;
+};
+
+std::vector<std::string> split(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream ss(text);
+  for (std::string item; std::getline(ss, item, ',');) out.push_back(item);
+  return out;
+}
+
+Options parse(int argc, char** argv) {
+  cli::Args a(argc, argv);
+  Options o;
+  while (!a.done()) {
+    const std::string f = a.flag();
+    if (f == "-h" || f == "--help") {
+      std::cout << kUsage;
+      std::exit(0);
+    } else if (f == "--seeds") {
+      o.seeds.clear();
+      for (const auto& s : split(a.text(f))) o.seeds.push_back(std::stoull(s));
+    } else if (f == "--map-points") {
+      o.map_points = static_cast<std::size_t>(a.integer(f));
+    } else if (f == "--scenarios") {
+      o.scenarios = split(a.text(f));
+    } else if (f == "--control-points") {
+      o.control_points = static_cast<int>(a.integer(f));
+    } else if (f == "--set") {
+      const std::string kv = a.text(f);
+      const auto eq = kv.find('=');
+      if (eq == std::string::npos) throw cli::UsageError("--set: '" + kv + "' is not KEY=VALUE");
+      o.sets.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
+    } else if (f == "--only-flexcloud") {
+      o.published = false;
+    } else {
+      throw cli::UsageError("unknown option '" + f + "'");
+    }
+  }
+  return o;
+}
+
+/// The published method: GNSS at the poses, control points every len/N, no refinement, no
+/// fusion, no points beside the road.
+Params published(int control_points) {
+  Params p;
+  p.fusion = false;
+  p.refine_fraction = 0.0;
+  p.control_points = control_points;
+  p.default_std_dev = 0.05;  // fixes without covariance pass the std-dev threshold
+  return p;
+}
+
+void row(const std::string& name, std::uint64_t seed, const std::string& method,
+         const sim::MapTruthErrors& m, const ErrorStats& traj, const GeoreferenceResult& r) {
+  std::printf("| %s | %lu | %s | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f | %s |\n", name.c_str(),
+              static_cast<unsigned long>(seed), method.c_str(), m.all.rmse, m.near.rmse, m.mid.rmse,
+              m.far.rmse, m.all.max, traj.rmse,
+              r.fusion ? ("rejected " + std::to_string(r.fusion->outliers) + ", dt " +
+                          std::to_string(r.fusion->time_offset).substr(0, 6) + " s, " +
+                          std::to_string(r.beside.size()) + " beside, " +
+                          std::to_string(r.fusion->seconds).substr(0, 5) + " s")
+                             .c_str()
+                       : "");
+  std::fflush(stdout);
+}
+
+void runOne(const Options& o, const std::string& name, std::uint64_t seed) {
+  const sim::SimParams sp = sim::scenario(name, seed, o.map_points);
+  const sim::SimDrive d = sim::simulateDrive(sp);
+  DriveInput in;
+  in.fixes = d.fixes;
+  in.poses = d.slam;
+  auto atDatum = [&](Params p) {
+    p.datum_lat = d.datum.lat, p.datum_lon = d.datum.lon, p.datum_alt = d.datum.alt;
+    return p;
+  };
+  if (o.published) {
+    const GeoreferenceResult r = georeference(in, atDatum(published(o.control_points)));
+    row(name, seed, "published", sim::mapTruthErrors(d.map, *r.sheet),
+        sim::trajectoryTruthError(r.rubbersheet, d.truth), r);
+  }
+  Params p = atDatum(Params{});
+  p.control_points = o.control_points;
+  if (name == "loop_offset_lever") {
+    p.lever_arm_x = sp.lever_arm.x(), p.lever_arm_y = sp.lever_arm.y();
+    p.lever_arm_z = sp.lever_arm.z();
+  }
+  for (const auto& [k, v] : o.sets) paramTable().setText(p, k, v);
+  const GeoreferenceResult r = georeference(in, p);
+  row(name, seed, "flexcloud", sim::mapTruthErrors(d.map, *r.sheet),
+      sim::trajectoryTruthError(r.rubbersheet, d.truth), r);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    const Options o = parse(argc, argv);
+    std::printf(
+        "| drive | seed | method | map RMSE | 0-5 m | 5-15 m | 15-30 m | map MAX | "
+        "trajectory RMSE | notes |\n|---|---:|---|---:|---:|---:|---:|---:|---:|---|\n");
+    for (const auto& name : o.scenarios) {
+      for (std::uint64_t seed : o.seeds) runOne(o, name, seed);
+    }
+    return 0;
+  } catch (const cli::UsageError& e) {
+    std::cerr << "flexcloud_accuracy: " << e.what() << " (see --help)" << std::endl;
+    return 2;
+  } catch (const Error& e) {
+    std::cerr << "flexcloud_accuracy: " << e.what() << " (see --help)" << std::endl;
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "flexcloud_accuracy: " << e.what() << std::endl;
+    return 1;
+  }
+}
