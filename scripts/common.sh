@@ -72,6 +72,8 @@ install_deps() {
     dpkg-query -W -f='${Status}' "${pkg}" 2>/dev/null | grep -q "install ok installed" \
       || missing+=("${pkg}")
   done
+  # npm comes with nodejs from some archives and as a package of its own from Debian's.
+  command -v npm > /dev/null 2>&1 || missing+=(npm)
   [ "${#missing[@]}" -eq 0 ] && return 0
   log "installing ${#missing[@]} Debian packages: ${missing[*]}"
   if [ "$(id -u)" -ne 0 ]; then

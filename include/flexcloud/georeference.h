@@ -91,6 +91,10 @@ std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Param
 /// The interpolated GNSS at every matched pose, stamped like the pose (identity orientation).
 Trajectory gnssTrajectory(const GeoreferenceResult& r);
 
+/// A pose through the sheet: the position warped, the orientation turned by the rotation nearest
+/// to the local linear part. `hint` carries the tetrahedron of the previous pose (0 to start).
+Pose warpPose(const RubberSheet& sheet, const Pose& p, int& hint);
+
 /// The rotation nearest to a linear map (polar decomposition).
 Eigen::Matrix3d nearestRotation(const Eigen::Matrix3d& m);
 

@@ -64,6 +64,11 @@ struct Params {
   double margin_min;
   // Reporting.
   double max_uncovered_share;
+  // Outputs beside the map.
+  bool autoware;
+  double tile_size;
+  std::string projector;
+  bool las;
   // Execution.
   int threads;
 

@@ -150,8 +150,8 @@ Trajectory transformed(const Trajectory& poses, const Eigen::Isometry3d& t) {
   return out;
 }
 
-/// Warps a pose; `hint` carries the tetrahedron of the previous pose (a trajectory moves
-/// little from pose to pose, so the walk from there is short and no grid is needed).
+}  // namespace
+
 Pose warpPose(const RubberSheet& sheet, const Pose& p, int& hint) {
   const auto loc = sheet.locateFrom(p.position, hint);
   if (!loc.outside) hint = loc.tet;
@@ -163,6 +163,8 @@ Pose warpPose(const RubberSheet& sheet, const Pose& p, int& hint) {
           .normalized();
   return out;
 }
+
+namespace {
 
 Trajectory warpTrajectory(const RubberSheet& sheet, const Trajectory& poses) {
   Trajectory out;

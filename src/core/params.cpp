@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "flexcloud/projection.h"
+
 namespace flexcloud {
 
 std::string toString(InterpolationMode mode) {
@@ -116,6 +118,16 @@ ParamTable<P> makeTable() {
       realRow<P>("max_uncovered_share", &P::max_uncovered_share, 0.1, 0.0, 1.0, "",
                  "Warn when more than this share of the poses or map points lies outside the "
                  "GNSS coverage"),
+      boolRow<P>("autoware", &P::autoware, false,
+                 "Also write the map as Autoware takes it: autoware/ with tiles, their metadata "
+                 "and map_projector_info.yaml"),
+      realRow<P>("tile_size", &P::tile_size, 20.0, 0.1, 100000, "m",
+                 "Side of the square Autoware map tiles"),
+      choiceRow<P>("projector", &P::projector, "local_cartesian", projectorNames(),
+                   "Frame of the Autoware tiles: local_cartesian (ENU at the datum, no point "
+                   "moves), local_cartesian_utm, mgrs"),
+      boolRow<P>("las", &P::las, false,
+                 "Also write map_georeferenced.las: LAS 1.4 in the datum's UTM zone for GIS tools"),
       intRow<P>("threads", &P::threads, 0, 0, 1024, "", "Threads for the map warp; 0: all cores"),
   });
 }

@@ -9,6 +9,8 @@
 #include <sstream>
 
 #include "flexcloud/io/atomic_file.h"
+#include "flexcloud/io/geojson.h"
+#include "flexcloud/io/report_plot.h"
 #include "flexcloud/io/text_io.h"
 
 namespace flexcloud {
@@ -71,7 +73,7 @@ json fusionJson(const FusionResult& f) {
 /// A staging folder inside the output folder; removed with whatever is left in it.
 class Staging {
  public:
-  explicit Staging(const std::string& dir) : dir_(dir) {
+  explicit Staging(const std::string& dir) : dir_(dir), created_(!fs::exists(dir)) {
     makeDirectories(dir);
     stage_ = (fs::path(dir) / (".flexcloud-staging-" + std::to_string(::getpid()))).string();
     std::error_code ec;
@@ -81,7 +83,9 @@ class Staging {
   ~Staging() {
     std::error_code ec;
     fs::remove_all(stage_, ec);
+    if (created_ && !committed_) fs::remove(dir_, ec);  // only if empty: nothing else was there
   }
+  const std::string& folder() const { return stage_; }
   std::string path(const std::string& name) {
     names_.push_back(name);
     return (fs::path(stage_) / name).string();
@@ -91,21 +95,94 @@ class Staging {
     for (const auto& n : names_) {
       const fs::path from = fs::path(stage_) / n;
       const fs::path to = fs::path(dir_) / n;
+      std::error_code ec;
+      if (fs::is_directory(from) && fs::exists(to)) fs::remove_all(to, ec);
       if (std::rename(from.c_str(), to.c_str()) != 0) {
         throw Error(to.string() + ": cannot move the finished file into place");
       }
     }
+    committed_ = true;
   }
 
  private:
   std::string dir_;
+  bool created_;
+  bool committed_ = false;
   std::string stage_;
   std::vector<std::string> names_;
 };
 
+json exportsJson(const ExportSummary& e) {
+  json j;
+  j["trajectories_geojson"] = e.geojson;
+  j["report_png"] = e.plot;
+  if (e.autoware) {
+    j["autoware"] = {{"tiles", e.autoware->tiles},
+                     {"points", e.autoware->points},
+                     {"points_non_finite_left_out", e.autoware->non_finite},
+                     {"mgrs_grid", e.autoware->mgrs_grid}};
+  }
+  if (e.las) {
+    j["las"] = {{"points", e.las->points},
+                {"points_non_finite_left_out", e.las->non_finite},
+                {"epsg", e.las->epsg},
+                {"point_format", e.las->point_format},
+                {"extra_fields", e.las->extra_fields}};
+  }
+  j["skipped"] = e.notes;
+  return j;
+}
+
+constexpr const char* kMapFile = "map_georeferenced.pcd";
+
+/// The text files every run writes.
+void writeRunFiles(Staging& stage, const GeoreferenceResult& r, const RunContext& run,
+                   ExportSummary& e) {
+  writeTextFile(stage.path("trajectory_gnss.txt"), gnssTum(r));
+  writeTextFile(stage.path("trajectory_slam.txt"), formatTum(r.poses));
+  writeTextFile(stage.path("trajectory_aligned.txt"), formatTum(r.aligned));
+  writeTextFile(stage.path("trajectory_rubbersheet.txt"), formatTum(r.rubbersheet));
+  writeTextFile(stage.path("control_points.txt"), controlPointsText(r));
+  if (r.fusion) {
+    writeTextFile(stage.path("trajectory_fused.txt"), formatTum(r.fusion->poses));
+    writeTextFile(stage.path("gnss_fixes.txt"), fixesText(r));
+  }
+  writeTextFile(stage.path("origin.yaml"), originYaml(r, run.frames));
+  if (r.datum) {
+    writeTextFile(stage.path("trajectories.geojson"), trajectoriesGeojson(r));
+    e.geojson = true;
+  } else {
+    e.notes.push_back("trajectories.geojson skipped: the GNSS came without a datum");
+  }
+}
+
+/// autoware/ and the LAS, made from the staged map.
+void writeMapExports(Staging& stage, const GeoreferenceResult& r, const Params& params,
+                     const RunContext& run, ExportSummary& e) {
+  if (!params.autoware && !params.las) return;
+  if (run.map == nullptr) {
+    e.notes.push_back("autoware/ and map_georeferenced.las skipped: no map was given");
+    return;
+  }
+  const std::string map = (fs::path(stage.folder()) / kMapFile).string();
+  if (params.autoware) {
+    AutowareOptions o;
+    o.tile_size = params.tile_size;
+    o.projector = parseProjector(params.projector);
+    o.threads = params.threads;
+    o.cancel = run.cancel;
+    e.autoware = writeAutowareMap(map, stage.path("autoware"), *r.datum, o);
+  }
+  if (params.las) {
+    e.las =
+        writeLas(map, stage.path("map_georeferenced.las"), *r.datum, params.threads, *run.cancel);
+  }
+}
+
 }  // namespace
 
-std::string reportJson(const GeoreferenceResult& r, const Params& params, const RunContext& run) {
+std::string reportJson(const GeoreferenceResult& r, const Params& params, const RunContext& run,
+                       const ExportSummary* exports) {
   const MapInfo* map = run.map;
   const FrameNames& frames = run.frames;
   json j;
@@ -165,6 +242,7 @@ std::string reportJson(const GeoreferenceResult& r, const Params& params, const 
     j["map_vs_truth"] = {{"aligned", stats(map->truth_aligned)},
                          {"rubbersheet", stats(map->truth_rubbersheet)}};
   }
+  if (exports != nullptr) j["exports"] = exportsJson(*exports);
   j["params"] = paramsJson(params);
   const auto& s = r.seconds;
   j["seconds"] = {{"gnss", s.gnss},
@@ -237,23 +315,38 @@ std::string fixesText(const GeoreferenceResult& r) {
   return s.str();
 }
 
-void writeOutputs(const std::string& dir, const GeoreferenceResult& r, const Params& params,
-                  const MapWriter& write_map, const RunContext& run) {
-  Staging stage(dir);
-  if (write_map) write_map(stage.path("map_georeferenced.pcd"));
-  writeTextFile(stage.path("trajectory_gnss.txt"), gnssTum(r));
-  writeTextFile(stage.path("trajectory_slam.txt"), formatTum(r.poses));
-  writeTextFile(stage.path("trajectory_aligned.txt"), formatTum(r.aligned));
-  writeTextFile(stage.path("trajectory_rubbersheet.txt"), formatTum(r.rubbersheet));
-  writeTextFile(stage.path("control_points.txt"), controlPointsText(r));
-  if (r.fusion) {
-    writeTextFile(stage.path("trajectory_fused.txt"), formatTum(r.fusion->poses));
-    writeTextFile(stage.path("gnss_fixes.txt"), fixesText(r));
+void checkExports(const GeoreferenceResult& r, const Params& params) {
+  const ProjectorType projector = parseProjector(params.projector);
+  if ((params.autoware || params.las) && !r.datum) {
+    throw Error(std::string(params.autoware ? "autoware" : "las") +
+                ": needs a datum, and the GNSS came in local coordinates without one");
   }
-  writeTextFile(stage.path("origin.yaml"), originYaml(r, run.frames));
-  writeTextFile(stage.path("report.json"), reportJson(r, params, run));
+  if (params.las) utmZoneOf(*r.datum);
+  if (params.autoware && projector != ProjectorType::kLocalCartesian)
+    MapProjection(*r.datum, projector);
+}
+
+ExportSummary writeOutputs(const std::string& dir, const GeoreferenceResult& r,
+                           const Params& params, const MapWriter& write_map,
+                           const RunContext& run) {
+  checkExports(r, params);
+  Staging stage(dir);
+  ExportSummary e;
+  if (write_map) write_map(stage.path(kMapFile));
+  writeRunFiles(stage, r, run, e);
+  writeMapExports(stage, r, params, run, e);
+  run.cancel->check(dir + ": before the outputs were moved into place");
+  const std::string skipped = plotReport(run.plot_script, stage.folder());
+  e.plot = skipped.empty();
+  if (e.plot) {
+    stage.path("report.png");
+  } else {
+    e.notes.push_back(skipped);
+  }
+  writeTextFile(stage.path("report.json"), reportJson(r, params, run, &e));
   run.cancel->check(dir + ": before the outputs were moved into place");
   stage.commit();
+  return e;
 }
 
 }  // namespace flexcloud

@@ -164,6 +164,19 @@ std::vector<GnssPoint> readLocalGnssFile(const std::string& path, StampUnit unit
   return parseLocalGnss(readWholeFile(path), path, unit);
 }
 
+std::vector<Eigen::Vector3d> readPointsFile(const std::string& path) {
+  const Table t = parseTable(readWholeFile(path), path, {3}, "x y z", StampUnit::kSeconds);
+  std::vector<Eigen::Vector3d> out;
+  out.reserve(t.rows.size());
+  for (const auto& r : t.rows) {
+    out.emplace_back(r[0], r[1], r[2]);
+    if (!out.back().allFinite()) {
+      throw Error(path + ": point " + std::to_string(out.size()) + " is not finite");
+    }
+  }
+  return out;
+}
+
 std::string formatTum(const Trajectory& poses) {
   std::ostringstream s;
   s << std::fixed;

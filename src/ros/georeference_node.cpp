@@ -5,8 +5,10 @@
 #include <filesystem>
 
 #include "flexcloud/io/pcd_io.h"
+#include "flexcloud/io/report_plot.h"
 #include "flexcloud/ros/bag_input.h"
 #include "flexcloud/ros/conversions.h"
+#include "flexcloud/ros/frame_services.h"
 
 namespace flexcloud {
 namespace {
@@ -99,7 +101,7 @@ void GeoreferenceNode::advertiseServices() {
       }));
   services_.push_back(service_nh_.advertiseService<S::Request, S::Response>(
       "save", [this](S::Request& req, S::Response& res) {
-        return answer(res, name_, [&] { res = save(req.directory); });
+        return answer(res, name_, [&] { res = save(req.directory, req.autoware, req.las); });
       }));
   services_.push_back(service_nh_.advertiseService<T::Request, T::Response>(
       "reset", [this](T::Request&, T::Response& res) {
@@ -108,6 +110,31 @@ void GeoreferenceNode::advertiseServices() {
   services_.push_back(service_nh_.advertiseService<L::Request, L::Response>(
       "load_map", [this](L::Request& req, L::Response& res) {
         return answer(res, name_, [&] { res = loadMap(req.file); });
+      }));
+  advertiseFrameServices();
+}
+
+std::shared_ptr<const NodeResult> GeoreferenceNode::latestResult() {
+  if (!startup_error_.empty()) throw Error(startup_error_);
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!result_) {
+    throw Error("no result: call georeference first (a reset withdraws the result)");
+  }
+  return result_;
+}
+
+void GeoreferenceNode::advertiseFrameServices() {
+  services_.push_back(service_nh_.advertiseService<ToLL::Request, ToLL::Response>(
+      "to_ll", [this](ToLL::Request& req, ToLL::Response& res) {
+        return answer(res, name_, [&] { res = toLL(*latestResult(), req); });
+      }));
+  services_.push_back(service_nh_.advertiseService<FromLL::Request, FromLL::Response>(
+      "from_ll", [this](FromLL::Request& req, FromLL::Response& res) {
+        return answer(res, name_, [&] { res = fromLL(*latestResult(), req); });
+      }));
+  services_.push_back(service_nh_.advertiseService<ToEnu::Request, ToEnu::Response>(
+      "to_enu", [this](ToEnu::Request& req, ToEnu::Response& res) {
+        return answer(res, name_, [&] { res = toEnu(*latestResult(), req); });
       }));
 }
 
@@ -403,7 +430,7 @@ flexcloud::Georeference::Response GeoreferenceNode::georeference(int control_poi
   return toResponse(future.get());
 }
 
-flexcloud::Save::Response GeoreferenceNode::save(const std::string& dir) {
+flexcloud::Save::Response GeoreferenceNode::save(const std::string& dir, bool autoware, bool las) {
   flexcloud::Save::Response res;
   if (!startup_error_.empty()) {
     res.message = startup_error_;
@@ -433,9 +460,14 @@ flexcloud::Save::Response GeoreferenceNode::save(const std::string& dir) {
   RunContext run;
   run.frames = s->frames;
   run.map = s->map ? &s->map_info : nullptr;
-  writeOutputs(absolute, s->result, s->params.core, write_map, run);
+  run.plot_script = findPlotScript();
+  Params params = s->params.core;
+  params.autoware = params.autoware || autoware;
+  params.las = params.las || las;
+  const ExportSummary e = writeOutputs(absolute, s->result, params, write_map, run);
   res.success = true;
   res.message = "wrote the result into " + absolute;
+  for (const auto& note : e.notes) res.message += "; " + note;
   return res;
 }
 

@@ -99,6 +99,24 @@ ResultPublisher::ResultPublisher(ros::NodeHandle& pnh) {
   result_ = pnh.advertise<flexcloud::Result>("result", 1, true);
 }
 
+geometry_msgs::TransformStamped viewFrame(const Trajectory& corrected, const std::string& enu,
+                                          const ros::Time& stamp) {
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d hi = -lo;
+  for (const auto& p : corrected) {
+    lo = lo.cwiseMin(p.position);
+    hi = hi.cwiseMax(p.position);
+  }
+  const Eigen::Vector3d centre =
+      corrected.empty() ? Eigen::Vector3d::Zero() : Eigen::Vector3d((lo + hi) / 2.0);
+  geometry_msgs::TransformStamped tf;
+  tf.header.stamp = stamp;
+  tf.header.frame_id = enu;
+  tf.child_frame_id = enu + "_view";
+  tf.transform = ros_conv::toTransformMsg(Eigen::Isometry3d(Eigen::Translation3d(centre)));
+  return tf;
+}
+
 void ResultPublisher::show(const NodeResult& s) {
   const auto& r = s.result;
   const ros::Time now = ros::Time::now();
@@ -110,6 +128,7 @@ void ResultPublisher::show(const NodeResult& s) {
   tf.child_frame_id = s.frames.map;
   tf.transform = ros_conv::toTransformMsg(r.T_enu_map);
   tf_.sendTransform(tf);
+  tf_.sendTransform(viewFrame(r.rubbersheet, enu, now));
   if (r.datum) {
     RawFix origin;
     origin.fix = GeoFix{now.toSec(), r.datum->lat, r.datum->lon, r.datum->alt,

@@ -13,6 +13,8 @@
 
 #include "cli.h"
 #include "flexcloud/cloud_warp.h"
+#include "flexcloud/frame_convert.h"
+#include "flexcloud/io/atomic_file.h"
 #include "flexcloud/io/config.h"
 #include "flexcloud/io/map_stream.h"
 #include "flexcloud/io/memory.h"
@@ -20,6 +22,7 @@
 #include "flexcloud/io/pcd_header.h"
 #include "flexcloud/io/pcd_io.h"
 #include "flexcloud/io/pcd_stream.h"
+#include "flexcloud/io/report_plot.h"
 #include "flexcloud/io/text_io.h"
 #include "flexcloud/ros/bag_input.h"
 #include "flexcloud/ros/node_params.h"
@@ -52,6 +55,14 @@ options:
                           the node's own keys are accepted and not used)
   --set KEY=VALUE         any parameter (repeatable), e.g. --set max_gap=2
   --threads N             warp threads (default: all cores)
+  --autoware              also write DIR/autoware/: the map in square tiles with
+                          pointcloud_map_metadata.yaml and map_projector_info.yaml
+    --tile-size M         side of the tiles (default 20 m)
+    --projector P         frame of the tiles: local_cartesian (default: ENU at the datum),
+                          local_cartesian_utm or mgrs (reprojected point by point)
+  --las                   also write DIR/map_georeferenced.las (LAS 1.4, UTM zone of the datum)
+  --to-ll FILE            also convert the points in FILE ("x y z" per line, map frame) through
+                          the result to WGS84: DIR/points_ll.txt "x y z lat lon alt"
   --truth FILE.pcd        ground-truth map in the output ENU frame (same points, same order):
                           the report then holds the map error before and after
   -q, --quiet             no progress on stderr
@@ -59,7 +70,7 @@ options:
 )";
 
 struct Options {
-  std::string bag, fix_topic, odom_topic, gnss, poses, map, truth, config;
+  std::string bag, fix_topic, odom_topic, gnss, poses, map, truth, config, to_ll;
   std::string out = "flexcloud_out";
   bool gnss_local = false;
   bool quiet = false;
@@ -104,6 +115,16 @@ Options parseOptions(int argc, char** argv) {
       o.sets.emplace_back("stddev_threshold", a.text(f));
     } else if (f == "--threads") {
       o.sets.emplace_back("threads", a.text(f));
+    } else if (f == "--autoware") {
+      o.sets.emplace_back("autoware", "true");
+    } else if (f == "--tile-size") {
+      o.sets.emplace_back("tile_size", a.text(f));
+    } else if (f == "--projector") {
+      o.sets.emplace_back("projector", a.text(f));
+    } else if (f == "--las") {
+      o.sets.emplace_back("las", "true");
+    } else if (f == "--to-ll") {
+      o.to_ll = a.text(f);
     } else if (f == "--config") {
       o.config = a.text(f);
     } else if (f == "--set") {
@@ -225,6 +246,20 @@ void printSummary(const GeoreferenceResult& r, const Params& params, const MapIn
   std::cout << "  outputs in     " << out << "\n";
 }
 
+/// "x y z lat lon alt" of map-frame points through the result (the rubber sheet, then WGS84).
+std::string pointsLlText(const GeoreferenceResult& r, const std::vector<Eigen::Vector3d>& points) {
+  std::string out =
+      "# x y z (map frame, m) latitude longitude (deg, WGS84) altitude (m, ellipsoid)\n";
+  char line[256];
+  for (const auto& p : points) {
+    const Datum g = enuToGeodetic(r, mapToEnu(r, p));
+    std::snprintf(line, sizeof(line), "%.4f %.4f %.4f %.10f %.10f %.4f\n", p.x(), p.y(), p.z(),
+                  g.lat, g.lon, g.alt);
+    out += line;
+  }
+  return out;
+}
+
 /// The map as the run will warp it: a binary PCD is streamed (read, warped and written chunk by
 /// chunk: memory stays small whatever its size); other encodings are loaded whole. Checked
 /// before the pipeline runs, so a bad map costs nothing.
@@ -301,8 +336,12 @@ int run(int argc, char** argv) {
   MapSource map = openMap(o, log, info);
   checkCancel();
 
+  std::vector<Eigen::Vector3d> to_ll;
+  if (!o.to_ll.empty()) to_ll = readPointsFile(o.to_ll);
+
   log.say("georeferencing");
   const GeoreferenceResult r = georeference(drive, params);
+  if (!o.to_ll.empty() && !r.datum) throw Error("--to-ll: the GNSS came without a datum");
   checkCancel();
 
   MapWriter write_map;
@@ -322,7 +361,11 @@ int run(int argc, char** argv) {
     context.peak_memory_mb = peakMemoryMb();
   };
   context.peak_memory_mb = peakMemoryMb();
-  writeOutputs(o.out, r, params, has_map ? measured : MapWriter(), context);
+  context.plot_script = findPlotScript();
+  const ExportSummary exports =
+      writeOutputs(o.out, r, params, has_map ? measured : MapWriter(), context);
+  for (const auto& note : exports.notes) log.say(note);
+  if (!o.to_ll.empty()) writeTextFile(o.out + "/points_ll.txt", pointsLlText(r, to_ll));
   if (has_map) {
     log.say("  map: read " + std::to_string(info.read_seconds) + " s, warp " +
             std::to_string(info.warp_seconds) + " s, write " + std::to_string(info.write_seconds) +

@@ -166,6 +166,15 @@ class Readme(unittest.TestCase):
             self.assertIn("control points", out)
             for f in ["map_georeferenced.pcd", "report.json", "origin.yaml"]:
                 self.assertTrue((self.user / "result" / f).exists(), f"{command}: {f}")
+        shutil.rmtree(self.user / "result", ignore_errors=True)
+        out = self.run_typed("scripts/georeference.sh --bag drive.bag --map slam_map.pcd "
+                             "--out result/ --autoware --projector mgrs --las")
+        self.assertIn("control points", out)
+        for f in ["autoware/map_projector_info.yaml", "autoware/pointcloud_map_metadata.yaml",
+                  "map_georeferenced.las", "trajectories.geojson", "report.png"]:
+            self.assertTrue((self.user / "result" / f).exists(), f)
+        self.assertIn("projector_type: MGRS",
+                      (self.user / "result/autoware/map_projector_info.yaml").read_text())
         out = self.run_typed("scripts/georeference.sh --help")
         self.assertIn("usage: georeference", out)
 
@@ -192,6 +201,10 @@ class Readme(unittest.TestCase):
             self.assertTrue((self.data / "georeferenced/map_georeferenced.pcd").exists())
             out = self.run_typed("scripts/env.sh rostopic echo -n 1 /flexcloud/result")
             self.assertIn("has_result: True", out)
+            out = self.run_typed('scripts/env.sh rosservice call /flexcloud/to_ll '
+                                 '"{map_point: {x: 10.0, y: 5.0, z: 0.0}}"')
+            self.assertIn("success: True", out)
+            self.assertRegex(out, r"latitude: 48\.2")
         finally:
             self.stop(launch)
 

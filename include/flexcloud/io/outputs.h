@@ -5,10 +5,13 @@
 #include <pcl/PCLPointCloud2.h>
 
 #include <functional>
+#include <optional>
 #include <string>
 
 #include "flexcloud/cloud_warp.h"
 #include "flexcloud/georeference.h"
+#include "flexcloud/io/autoware_map.h"
+#include "flexcloud/io/las_writer.h"
 
 namespace flexcloud {
 
@@ -40,9 +43,21 @@ struct RunContext {
   double peak_memory_mb = -1.0;
   /// Stops writeOutputs before anything is moved into place.
   const CancelToken* cancel = &neverCancelled();
+  /// scripts/plot_report.py of the package (empty: not found; report.png is then skipped).
+  std::string plot_script;
 };
 
-std::string reportJson(const GeoreferenceResult& r, const Params& params, const RunContext& run);
+/// What was written beside the map and the trajectories.
+struct ExportSummary {
+  bool geojson = false;  ///< trajectories.geojson (needs a datum)
+  std::optional<AutowareSummary> autoware;
+  std::optional<LasSummary> las;
+  bool plot = false;               ///< report.png
+  std::vector<std::string> notes;  ///< one line per output that was skipped, and why
+};
+
+std::string reportJson(const GeoreferenceResult& r, const Params& params, const RunContext& run,
+                       const ExportSummary* exports = nullptr);
 std::string originYaml(const GeoreferenceResult& r, const FrameNames& frames);
 std::string controlPointsText(const GeoreferenceResult& r);
 /// The interpolated GNSS at every matched pose as TUM (identity orientation).
@@ -54,12 +69,19 @@ std::string fixesText(const GeoreferenceResult& r);
 /// that fills the MapInfo as it goes).
 using MapWriter = std::function<void(const std::string& path)>;
 
+/// Checks, before anything is written, that the outputs params asks for can be made from this
+/// result: a datum for autoware/ and the LAS, inside UTM's reach where a projector needs it.
+/// Throws Error naming the parameter.
+void checkExports(const GeoreferenceResult& r, const Params& params);
+
 /// Writes map_georeferenced.pcd (through write_map, if given; it runs first, so the report
 /// sees what it put into run.map), trajectory_{gnss,slam,aligned,rubbersheet}.txt,
-/// control_points.txt, with the fusion trajectory_fused.txt and gnss_fixes.txt, origin.yaml
-/// and report.json into `dir` (created if needed). Throws
-/// Error, also when run.cancel is cancelled; on failure `dir` keeps its previous files.
-void writeOutputs(const std::string& dir, const GeoreferenceResult& r, const Params& params,
-                  const MapWriter& write_map, const RunContext& run);
+/// control_points.txt, with the fusion trajectory_fused.txt and gnss_fixes.txt, origin.yaml,
+/// trajectories.geojson (with a datum), with a map and params.autoware the folder autoware/,
+/// with a map and params.las map_georeferenced.las, report.png (where matplotlib is) and
+/// report.json into `dir` (created if needed). Throws Error, also when run.cancel is cancelled;
+/// on failure `dir` keeps its previous files (and is removed if the run created it).
+ExportSummary writeOutputs(const std::string& dir, const GeoreferenceResult& r,
+                           const Params& params, const MapWriter& write_map, const RunContext& run);
 
 }  // namespace flexcloud

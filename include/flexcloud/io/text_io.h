@@ -32,6 +32,11 @@ std::vector<RawFix> readGeodeticGnssFile(const std::string& path,
 std::vector<GnssPoint> readLocalGnssFile(const std::string& path,
                                          StampUnit unit = StampUnit::kAuto);
 
+/// Points "x y z" per line (m); '#' comments and blank lines skipped. Throws Error
+/// "FILE:LINE: ..." for a wrong column count or a non-number, "FILE: point N ..." for a
+/// non-finite point.
+std::vector<Eigen::Vector3d> readPointsFile(const std::string& path);
+
 /// The same readers on text already in memory; `name` is used in error messages.
 Trajectory parseTum(const std::string& text, const std::string& name, StampUnit unit);
 std::vector<RawFix> parseGeodeticGnss(const std::string& text, const std::string& name,

@@ -47,7 +47,8 @@ class GeoreferenceNode {
   /// after the same range check as dynamic_reconfigure's.
   flexcloud::Georeference::Response georeference(int control_points, double stddev_threshold);
   /// Writes the published result's files into `dir` (relative: to the working folder).
-  flexcloud::Save::Response save(const std::string& dir);
+  /// autoware, las: write those too, whatever the parameters say.
+  flexcloud::Save::Response save(const std::string& dir, bool autoware = false, bool las = false);
   /// Forgets every fix and pose collected so far and withdraws the result; in bag mode the bag
   /// is read again.
   std_srvs::Trigger::Response reset();
@@ -62,6 +63,9 @@ class GeoreferenceNode {
 
   void start();
   void advertiseServices();
+  void advertiseFrameServices();
+  /// The published result; throws Error when there is none (or the node did not start).
+  std::shared_ptr<const NodeResult> latestResult();
   void subscribe();
   void startBagRead();
   void onMap(const sensor_msgs::PointCloud2ConstPtr& msg);

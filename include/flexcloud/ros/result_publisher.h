@@ -28,6 +28,11 @@ struct NodeResult {
   double seconds = 0.0;
 };
 
+/// TF `ENU_view` in `enu`: the centre of the corrected trajectory's bounding box, where the rviz
+/// configuration's top-down view looks, whatever the drive.
+geometry_msgs::TransformStamped viewFrame(const Trajectory& corrected, const std::string& enu,
+                                          const ros::Time& stamp);
+
 /// The ~result message: the outcome of the latest run (success, message) and the published
 /// result `r` (null: none is published).
 flexcloud::Result toResultMsg(const NodeResult* r, bool success, const std::string& message);

@@ -1,0 +1,78 @@
+#include "flexcloud/io/report_plot.h"
+
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <vector>
+
+extern char** environ;
+
+namespace flexcloud {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// The last non-empty line of a file ("" if none).
+std::string lastLine(const std::string& path) {
+  std::ifstream in(path);
+  std::string line, last;
+  while (std::getline(in, line)) {
+    if (!line.empty()) last = line;
+  }
+  return last;
+}
+
+}  // namespace
+
+std::string plotReport(const std::string& script, const std::string& dir) {
+  if (script.empty()) return "report.png skipped: the plot script was not found";
+  if (!fs::exists(script)) return "report.png skipped: " + script + " does not exist";
+  const std::string log = (fs::path(dir) / ".plot.log").string();
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
+  posix_spawn_file_actions_addopen(&actions, 2, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  // Debian's interpreter, where the packaged matplotlib is, before whatever PATH puts first.
+  const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
+  std::vector<std::string> args = {python, script, dir};
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  const int spawned = posix_spawnp(&pid, python.c_str(), &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (spawned != 0) return "report.png skipped: python3 is not installed";
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  const std::string why = lastLine(log);
+  std::error_code ec;
+  fs::remove(log, ec);
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 0 && fs::exists(fs::path(dir) / "report.png")) {
+    return "";
+  }
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 3) {
+    return "report.png skipped: python3-matplotlib is not installed";
+  }
+  return "report.png skipped: the plot script failed" + (why.empty() ? "" : ": " + why);
+}
+
+std::string findPlotScript() {
+  const char* prefixes = std::getenv("CMAKE_PREFIX_PATH");
+  std::string rest = prefixes != nullptr ? prefixes : "";
+  while (!rest.empty()) {
+    const auto colon = rest.find(':');
+    const fs::path candidate =
+        fs::path(rest.substr(0, colon)) / "share/flexcloud/scripts/plot_report.py";
+    if (fs::exists(candidate)) return candidate.string();
+    rest = colon == std::string::npos ? "" : rest.substr(colon + 1);
+  }
+  const fs::path source = fs::path(FLEXCLOUD_SOURCE_DIR) / "scripts/plot_report.py";
+  return fs::exists(source) ? source.string() : "";
+}
+
+}  // namespace flexcloud
