@@ -46,6 +46,22 @@ TEST(Bag, ReadsTheBagGeoreferencesAndSaves) {
   }
   const pcl::PCLPointCloud2 saved = readPcd(out + "/map_georeferenced.pcd");
   EXPECT_EQ(saved.width * saved.height, truth.width * truth.height);
+  EXPECT_FALSE(fs::exists(out + "/autoware"));
+  // The same folder again with the Autoware map and the LAS asked for in the call.
+  save.request.autoware = true;
+  save.request.las = true;
+  ASSERT_TRUE(ros::service::call("/flexcloud/save", save));
+  EXPECT_TRUE(save.response.success) << save.response.message;
+  for (const char* f : {"autoware/map_projector_info.yaml", "autoware/pointcloud_map_metadata.yaml",
+                        "map_georeferenced.las", "trajectories.geojson"}) {
+    EXPECT_TRUE(fs::exists(out + "/" + f)) << f;
+  }
+  std::size_t tiled = 0;
+  for (const auto& tile : fs::directory_iterator(out + "/autoware/pointcloud_map")) {
+    const pcl::PCLPointCloud2 t = readPcd(tile.path().string());
+    tiled += t.width * t.height;
+  }
+  EXPECT_EQ(tiled, truth.width * truth.height);
   fs::remove_all(out);
 
   // A reset withdraws the result and reads the bag again (13): the map disappears, then the
