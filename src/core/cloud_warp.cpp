@@ -1,6 +1,8 @@
 #include "flexcloud/cloud_warp.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <vector>
 
@@ -103,30 +105,119 @@ struct AnyXyz {
   void set(std::uint8_t* pt, const Eigen::Vector3d& p) const { l.set(pt, p); }
 };
 
+/// Spreads the low 16 bits of v to the even bits (for a Morton code).
+inline std::uint32_t spread16(std::uint32_t v) {
+  v &= 0xFFFF;
+  v = (v | (v << 8)) & 0x00FF00FF;
+  v = (v | (v << 4)) & 0x0F0F0F0F;
+  v = (v | (v << 2)) & 0x33333333;
+  v = (v | (v << 1)) & 0x55555555;
+  return v;
+}
+
+/// Morton code of the 2 m x-y cell of a point (wrapping every 131 km, which keeps neighbours
+/// together all the same): points with close codes are close in space.
+inline std::uint32_t cellKey(const Eigen::Vector3d& p) {
+  constexpr double kInvCell = 0.5;
+  const auto cx =
+      static_cast<std::uint32_t>(static_cast<std::int64_t>(std::floor(p.x() * kInvCell)));
+  const auto cy =
+      static_cast<std::uint32_t>(static_cast<std::int64_t>(std::floor(p.y() * kInvCell)));
+  return spread16(cx) | (spread16(cy) << 1);
+}
+
+/// Sorts (key << 32 | index) entries by key: four byte-wise counting passes.
+void radixSortByKey(std::vector<std::uint64_t>& v, std::vector<std::uint64_t>& tmp) {
+  tmp.resize(v.size());
+  for (int shift = 32; shift < 64; shift += 8) {
+    std::size_t count[257] = {0};
+    for (const std::uint64_t e : v) ++count[((e >> shift) & 0xFF) + 1];
+    for (int b = 0; b < 256; ++b) count[b + 1] += count[b];
+    for (const std::uint64_t e : v) tmp[count[(e >> shift) & 0xFF]++] = e;
+    v.swap(tmp);
+  }
+}
+
+/// Warps points one range at a time, in block-sized steps. Scan-ordered maps are warped in file
+/// order, each point trying its predecessor's tetrahedron first. When that guess fails for most
+/// points of a block (a map voxel-filtered, merged or shuffled), the following blocks are warped
+/// in the order of their points' 2 m cells (a Morton code, radix-sorted), so that neighbours in
+/// space follow each other again; every point is still written in its own place.
+template <typename Xyz>
+class RangeWarper {
+ public:
+  RangeWarper(std::uint8_t* data, std::size_t step, const Xyz& xyz, const RubberSheet& sheet,
+              WarpStats& s)
+      : data_(data), step_(step), xyz_(xyz), sheet_(sheet), s_(s) {}
+
+  void run(std::size_t begin, std::size_t end, const CancelToken& cancel) {
+    std::size_t block = 0;
+    for (std::size_t b = begin; b < end; b += kBlock, ++block) {
+      if (cancel.cancelled()) return;
+      const std::size_t e = std::min(end, b + kBlock);
+      // Every 32nd block is warped in file order again, to see whether the order came back.
+      const bool probe = block % 32 == 0;
+      hits_ = 0;
+      if (sorted_ && !probe) {
+        warpSorted(b, e);
+      } else {
+        for (std::size_t i = b; i < e; ++i) warpPoint(i);
+        sorted_ = hits_ * 2 < e - b;
+      }
+    }
+  }
+
+ private:
+  static constexpr std::size_t kBlock = 1 << 18;
+
+  void warpSorted(std::size_t b, std::size_t e) {
+    order_.resize(e - b);
+    for (std::size_t i = b; i < e; ++i) {
+      const Eigen::Vector3d p = xyz_.get(data_ + i * step_);
+      const std::uint32_t key = p.allFinite() ? cellKey(p) : 0;
+      order_[i - b] = (static_cast<std::uint64_t>(key) << 32) | (i - b);
+    }
+    radixSortByKey(order_, tmp_);
+    for (const std::uint64_t o : order_) warpPoint(b + (o & 0xFFFFFFFFu));
+  }
+
+  void warpPoint(std::size_t i) {
+    std::uint8_t* pt = data_ + i * step_;
+    const Eigen::Vector3d p = xyz_.get(pt);
+    ++s_.points;
+    if (!p.allFinite()) {
+      ++s_.non_finite;
+      return;
+    }
+    RubberSheet::Location loc{last_, false};
+    if (last_ >= 0 && sheet_.contains(last_, p)) {
+      ++hits_;
+    } else {
+      loc = sheet_.locate(p);
+      if (loc.outside) {
+        ++s_.outside;
+      } else {
+        last_ = loc.tet;
+      }
+    }
+    xyz_.set(pt, RubberSheet::apply(sheet_.affineAt(loc), p));
+  }
+
+  std::uint8_t* data_;
+  std::size_t step_;
+  const Xyz& xyz_;
+  const RubberSheet& sheet_;
+  WarpStats& s_;
+  int last_ = -1;
+  std::size_t hits_ = 0;
+  bool sorted_ = false;
+  std::vector<std::uint64_t> order_, tmp_;
+};
+
 template <typename Xyz>
 void warpRange(std::uint8_t* data, std::size_t begin, std::size_t end, std::size_t step,
                const Xyz& xyz, const RubberSheet& sheet, WarpStats& s, const CancelToken& cancel) {
-  int last = -1;  // the previous point's tetrahedron: maps are stored scan by scan
-  for (std::size_t i = begin; i < end; ++i) {
-    if ((i & 0xFFFF) == 0 && cancel.cancelled()) return;
-    std::uint8_t* pt = data + i * step;
-    const Eigen::Vector3d p = xyz.get(pt);
-    ++s.points;
-    if (!p.allFinite()) {
-      ++s.non_finite;
-      continue;
-    }
-    RubberSheet::Location loc{last, false};
-    if (last < 0 || !sheet.contains(last, p)) {
-      loc = sheet.locate(p);
-      if (loc.outside) {
-        ++s.outside;
-      } else {
-        last = loc.tet;
-      }
-    }
-    xyz.set(pt, RubberSheet::apply(sheet.affineAt(loc), p));
-  }
+  RangeWarper<Xyz>(data, step, xyz, sheet, s).run(begin, end, cancel);
 }
 
 }  // namespace

@@ -1,13 +1,19 @@
 #include "flexcloud/io/autoware_map.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <iomanip>
 #include <limits>
-#include <map>
 #include <memory>
 #include <sstream>
+#include <unordered_map>
 #include <vector>
 
 #include "../core/parallel.h"
@@ -80,30 +86,43 @@ class Tiler {
       for (const TileKey& t : c.tiles) {
         if (t == kNoTile) {
           ++s.non_finite;
-        } else {
-          ++counts_[t];
+          continue;
         }
+        const auto [it, added] = ids_.try_emplace(t, static_cast<std::uint32_t>(tiles_.size()));
+        if (added) tiles_.push_back({t});
+        ++tiles_[it->second].count;
       }
     }
   }
 
-  /// Second pass: appends every point to its tile's file.
+  /// Second pass: each chunk sorted by tile, each tile's run written where it belongs in its
+  /// file (the counts of the first pass place it).
   void write(const std::string& tile_dir) {
-    for (const auto& [key, n] : counts_) {
-      openTile(tile_dir, key, n);
-    }
+    for (auto& t : tiles_) createTile(tile_dir, t);
     PcdChunkReader reader(path_);
     Chunk c;
     const std::size_t step = layout_.point_step;
-    std::map<TileKey, std::vector<std::uint8_t>> buffers;
+    std::vector<std::uint32_t> id;
+    std::vector<std::size_t> start(tiles_.size() + 1);
+    std::vector<std::uint8_t> sorted;
     while (next(reader, c)) {
+      id.resize(c.points);
+      std::fill(start.begin(), start.end(), 0);
       for (std::size_t i = 0; i < c.points; ++i) {
-        if (c.tiles[i] == kNoTile) continue;
-        auto& b = buffers[c.tiles[i]];
-        b.insert(b.end(), c.bytes.data() + i * step, c.bytes.data() + (i + 1) * step);
+        id[i] = c.tiles[i] == kNoTile ? kNone : ids_.at(c.tiles[i]);
+        if (id[i] != kNone) ++start[id[i] + 1];
       }
-      for (auto& [key, b] : buffers) append(tile_dir, key, b);
-      buffers.clear();
+      for (std::size_t k = 0; k < tiles_.size(); ++k) start[k + 1] += start[k];
+      sorted.resize(start.back() * step);
+      std::vector<std::size_t> at(start.begin(), start.end() - 1);
+      for (std::size_t i = 0; i < c.points; ++i) {
+        if (id[i] == kNone) continue;
+        std::memcpy(sorted.data() + at[id[i]]++ * step, c.bytes.data() + i * step, step);
+      }
+      for (std::size_t k = 0; k < tiles_.size(); ++k) {
+        const std::size_t n = start[k + 1] - start[k];
+        if (n > 0) writeRun(tile_dir, tiles_[k], sorted.data() + start[k] * step, n);
+      }
     }
   }
 
@@ -113,41 +132,71 @@ class Tiler {
   }
 
   std::string metadataYaml() const {
+    std::vector<TileKey> keys;
+    for (const auto& t : tiles_) keys.push_back(t.key);
+    std::sort(keys.begin(), keys.end());
     std::ostringstream s;
     s << "x_resolution: " << number(options_.tile_size) << "\n";
     s << "y_resolution: " << number(options_.tile_size) << "\n";
-    for (const auto& [key, n] : counts_) {
+    for (const auto& key : keys) {
       s << tileName(key) << ": [" << number(static_cast<double>(key.first) * options_.tile_size)
         << ", " << number(static_cast<double>(key.second) * options_.tile_size) << "]\n";
     }
     return s.str();
   }
 
-  std::size_t tiles() const { return counts_.size(); }
+  std::size_t tiles() const { return tiles_.size(); }
   std::size_t counted() const {
     std::size_t n = 0;
-    for (const auto& [key, c] : counts_) n += c;
+    for (const auto& t : tiles_) n += t.count;
     return n;
   }
 
  private:
-  void openTile(const std::string& dir, const TileKey& key, std::size_t n) {
-    const std::string header =
-        binaryPcdHeader(fields_, layout_.point_step, static_cast<std::uint32_t>(n), 1);
-    writeBytes(dir, key, "wb", header.data(), header.size());
-  }
+  static constexpr std::uint32_t kNone = 0xFFFFFFFFu;
 
-  void append(const std::string& dir, const TileKey& key, const std::vector<std::uint8_t>& b) {
-    writeBytes(dir, key, "ab", b.data(), b.size());
-  }
-
-  void writeBytes(const std::string& dir, const TileKey& key, const char* mode, const void* data,
-                  std::size_t size) const {
-    const std::string path = (fs::path(dir) / tileName(key)).string();
-    std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), mode), &std::fclose);
-    if (!f || std::fwrite(data, 1, size, f.get()) != size || std::fflush(f.get()) != 0) {
-      throw Error(path + ": cannot write the tile");
+  struct TileFile {
+    TileKey key;
+    std::size_t count = 0;
+    std::size_t written = 0;
+    std::size_t header = 0;  ///< bytes before the first point
+  };
+  struct KeyHash {
+    std::size_t operator()(const TileKey& k) const {
+      return std::hash<long long>()(k.first * 1000003LL ^ k.second);
     }
+  };
+
+  void createTile(const std::string& dir, TileFile& t) const {
+    const std::string header =
+        binaryPcdHeader(fields_, layout_.point_step, static_cast<std::uint32_t>(t.count), 1);
+    t.header = header.size();
+    writeAt(dir, t, O_WRONLY | O_CREAT | O_TRUNC, header.data(), header.size(), 0);
+  }
+
+  void writeRun(const std::string& dir, TileFile& t, const std::uint8_t* data, std::size_t n) {
+    const std::size_t step = layout_.point_step;
+    writeAt(dir, t, O_WRONLY, data, n * step, t.header + t.written * step);
+    t.written += n;
+  }
+
+  void writeAt(const std::string& dir, const TileFile& t, int flags, const void* data,
+               std::size_t size, std::size_t offset) const {
+    const std::string path = (fs::path(dir) / tileName(t.key)).string();
+    const int fd = ::open(path.c_str(), flags | O_CLOEXEC, 0644);
+    bool ok = fd >= 0;
+    const auto* p = static_cast<const std::uint8_t*>(data);
+    while (ok && size > 0) {
+      const ssize_t w = ::pwrite(fd, p, size, static_cast<off_t>(offset));
+      ok = w > 0;
+      if (ok) {
+        p += w;
+        size -= static_cast<std::size_t>(w);
+        offset += static_cast<std::size_t>(w);
+      }
+    }
+    if (fd >= 0 && ::close(fd) != 0) ok = false;
+    if (!ok) throw Error(path + ": cannot write the tile: " + std::strerror(errno));
   }
 
   std::string path_;
@@ -156,7 +205,8 @@ class Tiler {
   PcdChunkReader reader_;
   std::vector<pcl::PCLPointField> fields_;
   XyzLayout layout_;
-  std::map<TileKey, std::size_t> counts_;
+  std::unordered_map<TileKey, std::uint32_t, KeyHash> ids_;
+  std::vector<TileFile> tiles_;
 };
 
 }  // namespace

@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <iomanip>
@@ -130,6 +131,7 @@ json exportsJson(const ExportSummary& e) {
                 {"extra_fields", e.las->extra_fields}};
   }
   j["skipped"] = e.notes;
+  j["seconds"] = e.seconds;
   return j;
 }
 
@@ -334,7 +336,9 @@ ExportSummary writeOutputs(const std::string& dir, const GeoreferenceResult& r,
   ExportSummary e;
   if (write_map) write_map(stage.path(kMapFile));
   writeRunFiles(stage, r, run, e);
+  const auto t0 = std::chrono::steady_clock::now();
   writeMapExports(stage, r, params, run, e);
+  e.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   run.cancel->check(dir + ": before the outputs were moved into place");
   const std::string skipped = plotReport(run.plot_script, stage.folder());
   e.plot = skipped.empty();
@@ -343,7 +347,9 @@ ExportSummary writeOutputs(const std::string& dir, const GeoreferenceResult& r,
   } else {
     e.notes.push_back(skipped);
   }
-  writeTextFile(stage.path("report.json"), reportJson(r, params, run, &e));
+  RunContext measured = run;
+  if (run.measure_peak) measured.peak_memory_mb = run.measure_peak();
+  writeTextFile(stage.path("report.json"), reportJson(r, params, measured, &e));
   run.cancel->check(dir + ": before the outputs were moved into place");
   stage.commit();
   return e;

@@ -41,6 +41,10 @@ markdown table (doc/BENCHMARKS.md).
   --work DIR                  scratch folder (default: the temporary folder)
   --repeat N                  runs per figure, the best counts (default 3)
   --skip-tool                 leave out the whole-tool runs
+  --city N                    also a city-size map of N points (default 100000000; 0: none) in
+                              random order, 200 control points: the whole tool against a
+                              user-space copy of the file, and its peak memory, without and with
+                              the Autoware tiles
   -h, --help
 )";
 
@@ -50,6 +54,7 @@ struct Options {
   int threads = 0;
   int repeat = 3;
   bool tool = true;
+  std::size_t city = 100000000;
   std::string work = (fs::temp_directory_path() / "flexcloud_benchmark").string();
 };
 
@@ -80,6 +85,8 @@ Options parse(int argc, char** argv) {
       o.repeat = static_cast<int>(a.integer(f));
     } else if (f == "--work") {
       o.work = a.text(f);
+    } else if (f == "--city") {
+      o.city = static_cast<std::size_t>(a.number(f));
     } else if (f == "--skip-tool") {
       o.tool = false;
     } else {
@@ -277,6 +284,80 @@ void onePointCount(const Options& o, std::size_t n) {
   }
 }
 
+/// A user-space copy of a file through a 4 MB buffer (what cp does): the floor for a tool that
+/// reads a map and writes it again.
+double copyFile(const std::string& from, const std::string& to) {
+  return seconds([&] {
+    std::ifstream in(from, std::ios::binary);
+    std::ofstream out(to, std::ios::binary | std::ios::trunc);
+    std::vector<char> buf(4 << 20);
+    while (in.read(buf.data(), static_cast<std::streamsize>(buf.size())) || in.gcount() > 0) {
+      out.write(buf.data(), in.gcount());
+    }
+    if (!out) throw Error(to + ": the copy failed");
+  });
+}
+
+/// The tool's own peak memory from its report.
+double reportedPeak(const std::string& report_path) {
+  std::ifstream report(report_path);
+  const std::string text((std::istreambuf_iterator<char>(report)), {});
+  const auto at = text.find("\"peak_memory_mb\":");
+  return at == std::string::npos ? 0.0 : std::stod(text.substr(at + 17));
+}
+
+/// A city-size map (a 20 km drive) in random order: the whole tool against a copy of the file.
+void cityMap(const Options& o) {
+  const std::string dir = o.work + "/city";
+  makeDirectories(dir);
+  const std::string pcd = dir + "/map.pcd";
+  std::pair<std::string, std::string> inputs;
+  std::size_t bytes = 0;
+  {
+    sim::SimParams sp;
+    sp.length = 20000.0;
+    sp.map_points = o.city;
+    std::fprintf(stderr, "simulating a 20 km drive with %zu map points\n", o.city);
+    const sim::SimDrive d = sim::simulateDrive(sp);
+    inputs = writeToolInputs(d, dir);
+    const pcl::PCLPointCloud2 random = shuffled(sim::slamCloud(d.map));
+    bytes = random.data.size();
+    writePcdBinary(pcd, random);
+  }
+  const double copy = copyFile(pcd, dir + "/copy.pcd");
+  fs::remove(dir + "/copy.pcd");
+  const double gb = static_cast<double>(bytes) / 1e9;
+  std::printf(
+      "| %zu | user-space copy of the map file (4 MB buffer) | | %.3f s | %.1f M/s | "
+      "%.2f GB binary, random order |\n",
+      o.city, copy, o.city / copy / 1e6, gb);
+  for (const bool autoware : {false, true}) {
+    std::vector<std::string> args = {toolPath(),
+                                     "--gnss",
+                                     inputs.first,
+                                     "--poses",
+                                     inputs.second,
+                                     "--map",
+                                     pcd,
+                                     "--out",
+                                     dir + "/out",
+                                     "--threads",
+                                     std::to_string(o.threads),
+                                     "-q"};
+    if (autoware) args.push_back("--autoware");
+    const ProcessRun run = runProcess(args);
+    if (run.code != 0) throw Error("the georeference tool failed on the city map");
+    const double peak = reportedPeak(dir + "/out/report.json");
+    std::printf(
+        "| %zu | whole offline tool, random order%s | 200 | %.3f s | %.1f M/s | **%.2f x** "
+        "the copy; peak %.0f MB |\n",
+        o.city, autoware ? ", with the 20 m Autoware tiles" : "", run.seconds,
+        o.city / run.seconds / 1e6, run.seconds / copy, peak);
+    std::fflush(stdout);
+  }
+  fs::remove_all(dir);
+}
+
 void oneHourDrive(const Options& o) {
   sim::SimParams sp;
   sp.length = 12.0 * 3600.0;  // an hour at 12 m/s: 36000 poses at 10 Hz, 18000 fixes at 5 Hz
@@ -310,6 +391,7 @@ int main(int argc, char** argv) {
     std::printf("|---:|---|---|---:|---:|---|\n");
     oneHourDrive(o);
     for (std::size_t n : o.points) onePointCount(o, n);
+    if (o.city > 0) cityMap(o);
     return 0;
   } catch (const std::exception& e) {
     std::cerr << "flexcloud_benchmark: " << e.what() << std::endl;

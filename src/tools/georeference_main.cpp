@@ -362,6 +362,7 @@ int run(int argc, char** argv) {
   };
   context.peak_memory_mb = peakMemoryMb();
   context.plot_script = findPlotScript();
+  context.measure_peak = [] { return peakMemoryMb(); };
   const ExportSummary exports =
       writeOutputs(o.out, r, params, has_map ? measured : MapWriter(), context);
   for (const auto& note : exports.notes) log.say(note);

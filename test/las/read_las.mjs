@@ -20,10 +20,12 @@ const buffer = bytes.buffer.slice(bytes.byteOffset, bytes.byteOffset + bytes.byt
 const data = await parse(buffer, LAZRsLoader, {worker: false, las: {fp64: true, shape: 'mesh'}});
 const pos = data.attributes.POSITION.value;
 const intensity = data.attributes.intensity ? data.attributes.intensity.value : null;
+const color = data.attributes.COLOR_0 || null;
 const points = indices.map(Number).map((i) => ({
   index: i,
   position: [pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]],
   intensity: intensity ? intensity[i] : null,
+  color: color ? Array.from(color.value.slice(color.size * i, color.size * i + 3)) : null,
 }));
 console.log(JSON.stringify({
   header: data.loaderData,

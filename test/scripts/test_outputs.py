@@ -227,6 +227,43 @@ class Outputs(unittest.TestCase):
         self.assertEqual(CRS.from_wkt(wkt).to_epsg(), 32632)
         print(f"LAS: {n} points, largest difference from pyproj {err * 1e3:.3f} mm, EPSG:32632")
 
+    def test_las_keeps_intensity_rgb_and_the_other_fields(self):
+        n = len(self.map)
+        rng = np.random.default_rng(2)
+        idx = sorted(rng.choice(n, SAMPLE, replace=False).tolist())
+        # Format 6: intensity in its field, ring and label as extra bytes after the 30 bytes.
+        raw = (self.out["local_cartesian"] / "map_georeferenced.las").read_bytes()
+        offset, = struct.unpack_from("<I", raw, 96)
+        length, = struct.unpack_from("<H", raw, 105)
+        self.assertEqual(length, 30 + 2 + 4)
+        records = np.frombuffer(raw, dtype=np.uint8, offset=offset).reshape(n, length)
+        intensity = records[:, 12:14].copy().view("<u2").ravel()
+        ring = records[:, 30:32].copy().view("<u2").ravel()
+        label = records[:, 32:36].copy().view("<u4").ravel()
+        self.assertTrue(np.array_equal(intensity, np.clip(np.round(self.map["intensity"]), 0, 65535)))
+        self.assertTrue(np.array_equal(ring, self.map["ring"]))
+        self.assertTrue(np.array_equal(label, self.map["label"]))
+        # Format 7 with rgb: the drive's SLAM map with a packed rgb field instead of the others.
+        src = read_pcd(self.drive / "map.pcd")
+        rgb = ((np.arange(n) % 256) << 16) | (((np.arange(n) // 256) % 256) << 8) | 7
+        cloud_in = np.zeros(n, dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("rgb", "<u4")])
+        for a in "xyz":
+            cloud_in[a] = src[a]
+        cloud_in["rgb"] = rgb
+        path = self.tmp / "rgb.pcd"
+        header = (f"VERSION 0.7\nFIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F U\nCOUNT 1 1 1 1\n"
+                  f"WIDTH {n}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\nDATA binary\n")
+        path.write_bytes(header.encode() + cloud_in.tobytes())
+        out = self.tmp / "rgb_out"
+        run(BIN / "georeference", "--bag", self.drive / "drive.bag", "--map", path, "--datum", *DATUM,
+            "--out", out, "--las", "-q")
+        got = json.loads(run("node", las_reader() / "read_las.mjs", out / "map_georeferenced.las",
+                             *idx).stdout)
+        self.assertEqual(got["header"]["pointsFormatId"], 7)
+        colours = np.array([p["color"] for p in got["points"]])
+        want = np.column_stack([rgb[idx] >> 16, (rgb[idx] >> 8) & 255, rgb[idx] & 255])
+        self.assertTrue(np.array_equal(colours, want), (colours[:3], want[:3]))
+
     def test_geojson_holds_the_trajectories_and_points_in_wgs84(self):
         g = json.loads((self.out["local_cartesian"] / "trajectories.geojson").read_text())
         self.assertEqual(g["type"], "FeatureCollection")

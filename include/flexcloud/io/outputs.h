@@ -41,6 +41,9 @@ struct RunContext {
   /// Peak resident memory (MB) of the process that made the result; negative: not measured
   /// (inside a nodelet manager the process is the manager, so the node does not report it).
   double peak_memory_mb = -1.0;
+  /// When set, called once everything but report.json is written; its figure replaces
+  /// peak_memory_mb (so the report covers the exports too).
+  std::function<double()> measure_peak;
   /// Stops writeOutputs before anything is moved into place.
   const CancelToken* cancel = &neverCancelled();
   /// scripts/plot_report.py of the package (empty: not found; report.png is then skipped).
@@ -53,6 +56,7 @@ struct ExportSummary {
   std::optional<AutowareSummary> autoware;
   std::optional<LasSummary> las;
   bool plot = false;               ///< report.png
+  double seconds = 0.0;            ///< writing autoware/ and the LAS
   std::vector<std::string> notes;  ///< one line per output that was skipped, and why
 };
 
