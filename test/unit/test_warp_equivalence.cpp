@@ -2,6 +2,7 @@
 // tetrahedron CGAL's own point location finds, on sheets from simulated drives.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <random>
 
@@ -92,6 +93,30 @@ TEST(WarpEquivalence, FastPathMatchesCgalOnMapFacesEdgesVerticesAndOutside) {
     // Points on the hull's faces may count as in or out; the two answers agree there.
     EXPECT_NEAR(static_cast<double>(stats.outside), static_cast<double>(outside),
                 0.001 * probes.size());
+  }
+}
+
+/// Maps in any order: shuffled (warped cell by cell, in Morton order) and half scan-ordered,
+/// half shuffled (the warp switches between the two). Every point is CGAL's answer, in its place.
+TEST(WarpEquivalence, RandomOrderMatchesCgalWithEveryPointInItsPlace) {
+  const Case c = makeCase(2000, 200000);
+  const RubberSheet& sheet = *c.result.sheet;
+  std::vector<Eigen::Vector3d> shuffled = c.drive.map.slam;
+  std::mt19937 rng(4);
+  std::shuffle(shuffled.begin(), shuffled.end(), rng);
+  std::vector<Eigen::Vector3d> mixed(c.drive.map.slam.begin(), c.drive.map.slam.begin() + 100000);
+  mixed.insert(mixed.end(), shuffled.begin(), shuffled.begin() + 100000);
+  for (const auto* probes : {&shuffled, &mixed}) {
+    pcl::PCLPointCloud2 cloud = doubleCloud(*probes);
+    const WarpStats stats = warpCloud(cloud, sheet, 2);
+    EXPECT_EQ(stats.points, probes->size());
+    const XyzLayout l = XyzLayout::of(cloud, "probe");
+    double worst = 0.0;
+    for (std::size_t i = 0; i < probes->size(); ++i) {
+      const Eigen::Vector3d want = sheet.transformReference((*probes)[i]);
+      worst = std::max(worst, (l.get(cloud.data.data() + i * 24) - want).norm());
+    }
+    EXPECT_LT(worst, 1e-6) << (probes == &shuffled ? "shuffled" : "mixed");
   }
 }
 
