@@ -3,6 +3,7 @@
 
 #include <Eigen/Core>
 #include <GeographicLib/LocalCartesian.hpp>
+#include <string>
 
 namespace flexcloud {
 
@@ -32,5 +33,7 @@ class EnuFrame {
 
 /// True when lat in [-90, 90], lon in [-180, 180], alt in [-11 km, 100 km], all finite.
 bool isValidGeodetic(double lat, double lon, double alt);
+/// Throws Error "WHAT (lat, lon, alt) is not a valid latitude/longitude/altitude" unless valid.
+void requireValidGeodetic(const Datum& g, const std::string& what);
 
 }  // namespace flexcloud

@@ -86,13 +86,7 @@ Datum enuToGeodetic(const GeoreferenceResult& r, const Eigen::Vector3d& enu) {
 }
 
 Eigen::Vector3d geodeticToEnu(const GeoreferenceResult& r, const Datum& g) {
-  if (!isValidGeodetic(g.lat, g.lon, g.alt)) {
-    std::ostringstream s;
-    s.precision(12);
-    s << "(" << g.lat << ", " << g.lon << ", " << g.alt
-      << ") is not a valid latitude/longitude/altitude";
-    throw Error(s.str());
-  }
+  requireValidGeodetic(g, "position");
   return frameOf(r).toEnu(g.lat, g.lon, g.alt);
 }
 

@@ -12,14 +12,17 @@ bool isValidGeodetic(double lat, double lon, double alt) {
          lat <= 90.0 && lon >= -180.0 && lon <= 180.0 && alt >= -11000.0 && alt <= 100000.0;
 }
 
+void requireValidGeodetic(const Datum& g, const std::string& what) {
+  if (isValidGeodetic(g.lat, g.lon, g.alt)) return;
+  std::ostringstream s;
+  s.precision(12);
+  s << what << " (" << g.lat << ", " << g.lon << ", " << g.alt
+    << ") is not a valid latitude/longitude/altitude";
+  throw Error(s.str());
+}
+
 EnuFrame::EnuFrame(const Datum& datum) : datum_(datum) {
-  if (!isValidGeodetic(datum.lat, datum.lon, datum.alt)) {
-    std::ostringstream s;
-    s.precision(12);
-    s << "datum (" << datum.lat << ", " << datum.lon << ", " << datum.alt
-      << ") is not a valid latitude/longitude/altitude";
-    throw Error(s.str());
-  }
+  requireValidGeodetic(datum, "datum");
   local_.Reset(datum.lat, datum.lon, datum.alt);
 }
 

@@ -62,9 +62,7 @@ UtmZone utmZoneOf(const Datum& datum) {
 
 MapProjection::MapProjection(const Datum& datum, ProjectorType type)
     : datum_(datum), type_(type), local_(datum.lat, datum.lon, datum.alt) {
-  if (!isValidGeodetic(datum.lat, datum.lon, datum.alt)) {
-    throw Error("datum is not a valid latitude/longitude/altitude");
-  }
+  requireValidGeodetic(datum, "datum");
   if (type == ProjectorType::kLocalCartesian) return;
   zone_ = utmZoneOf(datum);
   bool north = true;

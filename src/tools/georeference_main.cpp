@@ -9,6 +9,7 @@
 #include <csignal>
 #include <cstdio>
 #include <iostream>
+#include <map>
 #include <optional>
 
 #include "cli.h"
@@ -78,6 +79,15 @@ struct Options {
   std::vector<std::pair<std::string, std::string>> sets;  // applied after the config file
 };
 
+/// Options that set one parameter: with a value, and switches that set it to true.
+const std::map<std::string, std::string> kValueShortcuts = {
+    {"--control-points", "control_points"},
+    {"--stddev-threshold", "stddev_threshold"},
+    {"--threads", "threads"},
+    {"--tile-size", "tile_size"},
+    {"--projector", "projector"}};
+const std::map<std::string, std::string> kSwitches = {{"--autoware", "autoware"}, {"--las", "las"}};
+
 Options parseOptions(int argc, char** argv) {
   cli::Args a(argc, argv);
   Options o;
@@ -109,20 +119,10 @@ Options parseOptions(int argc, char** argv) {
       o.sets.emplace_back("datum_lat", a.text(f));
       o.sets.emplace_back("datum_lon", a.text(f));
       o.sets.emplace_back("datum_alt", a.text(f));
-    } else if (f == "--control-points") {
-      o.sets.emplace_back("control_points", a.text(f));
-    } else if (f == "--stddev-threshold") {
-      o.sets.emplace_back("stddev_threshold", a.text(f));
-    } else if (f == "--threads") {
-      o.sets.emplace_back("threads", a.text(f));
-    } else if (f == "--autoware") {
-      o.sets.emplace_back("autoware", "true");
-    } else if (f == "--tile-size") {
-      o.sets.emplace_back("tile_size", a.text(f));
-    } else if (f == "--projector") {
-      o.sets.emplace_back("projector", a.text(f));
-    } else if (f == "--las") {
-      o.sets.emplace_back("las", "true");
+    } else if (const auto v = kValueShortcuts.find(f); v != kValueShortcuts.end()) {
+      o.sets.emplace_back(v->second, a.text(f));
+    } else if (const auto w = kSwitches.find(f); w != kSwitches.end()) {
+      o.sets.emplace_back(w->second, "true");
     } else if (f == "--to-ll") {
       o.to_ll = a.text(f);
     } else if (f == "--config") {
