@@ -1,12 +1,23 @@
 #!/usr/bin/env python3
 """Counts the test cases in the JUnit XML files under a folder (gtest, rostest, catkin).
 
-Prints every failed or skipped case, then the last line "N passed, N failed". Exit status 1
-when a case failed or no result was found at all.
+Prints every failed or skipped case (a failed one with the first lines of its message, so a CI
+log says why), then the last line "N passed, N failed". Exit status 1 when a case failed or no
+result was found at all.
 """
 import pathlib
 import sys
 import xml.etree.ElementTree as ET
+
+
+def why(case):
+    """The first lines of a failed case's message (gtest puts the failed assertion there)."""
+    node = case.find("failure")
+    if node is None:
+        node = case.find("error")
+    text = (node.get("message") or node.text or "").strip()
+    lines = [line.strip() for line in text.splitlines() if line.strip()][:4]
+    return "".join(f"\n          {line[:300]}" for line in lines)
 
 
 def cases(path):
@@ -19,7 +30,7 @@ def cases(path):
     for case in root.iter("testcase"):
         name = f"{case.get('classname', '')}.{case.get('name', '')}".strip(".")
         if case.find("failure") is not None or case.find("error") is not None:
-            out.append((name, "failed"))
+            out.append((name + why(case), "failed"))
         elif case.find("skipped") is not None or case.get("result") == "skipped":
             out.append((name, "skipped"))
         else:
