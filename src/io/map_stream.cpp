@@ -15,6 +15,7 @@
 #include <optional>
 #include <thread>
 
+#include "flexcloud/io/pcd_ascii.h"
 #include "flexcloud/io/pcd_io.h"
 #include "flexcloud/io/pcd_stream.h"
 
@@ -63,6 +64,41 @@ class TruthSource {
   std::vector<std::uint8_t> buffer_;
 };
 
+/// The map's points in file order from a binary or an ascii body, and a sample spread over it.
+class MapPoints {
+ public:
+  explicit MapPoints(const std::string& path) {
+    const PcdHeader h = readPcdHeader(path);
+    if (h.data == PcdHeader::Data::kBinary) {
+      binary_.emplace(path);
+    } else if (h.data == PcdHeader::Data::kAscii) {
+      ascii_.emplace(path);
+    } else {
+      throw Error(path + ": a binary_compressed map is read whole, not streamed");
+    }
+  }
+  const PcdHeader& header() const { return binary_ ? binary_->header() : ascii_->header(); }
+  std::size_t read(std::uint8_t* buf, std::size_t max_points) {
+    return binary_ ? binary_->read(buf, max_points) : ascii_->read(buf, max_points);
+  }
+  /// Up to `blocks` runs of up to `block` points spread over the file, handed to fn.
+  void sample(std::size_t blocks, std::size_t block, const PcdAsciiReader::SampleFn& fn) const {
+    if (ascii_) return ascii_->sample(blocks, block, fn);
+    const PcdHeader& h = header();
+    block = std::min(block, h.points);
+    std::vector<std::uint8_t> buf(block * h.point_step);
+    for (std::size_t k = 0; k < blocks && block > 0; ++k) {
+      binary_->readAt((h.points - block) * k / std::max<std::size_t>(1, blocks - 1), block,
+                      buf.data());
+      fn(buf.data(), block);
+    }
+  }
+
+ private:
+  std::optional<PcdChunkReader> binary_;
+  std::optional<PcdAsciiReader> ascii_;
+};
+
 /// One map file being warped: the per-chunk work shared by both ways of moving the bytes.
 class MapJob {
  public:
@@ -81,21 +117,16 @@ class MapJob {
 
   const PcdHeader& header() const { return reader_.header(); }
   const std::vector<pcl::PCLPointField>& fields() const { return fields_; }
-  PcdChunkReader& reader() { return reader_; }
+  MapPoints& reader() { return reader_; }
 
   /// Builds the location grid from sample blocks spread over the whole file.
   void prepare() {
-    const PcdHeader& h = header();
+    const std::size_t step = header().point_step;
     const auto t0 = Clock::now();
-    const std::size_t block = std::min(kSampleBlock, h.points);
-    std::vector<std::uint8_t> buf(block * h.point_step);
     std::vector<Eigen::Vector3d> sample;
-    for (std::size_t k = 0; k < kSampleBlocks && block > 0; ++k) {
-      const std::size_t first = (h.points - block) * k / (kSampleBlocks - 1);
-      reader_.readAt(first, block, buf.data());
-      for (std::size_t i = 0; i < block; ++i)
-        sample.push_back(layout_.get(buf.data() + i * h.point_step));
-    }
+    reader_.sample(kSampleBlocks, kSampleBlock, [&](const std::uint8_t* points, std::size_t n) {
+      for (std::size_t i = 0; i < n; ++i) sample.push_back(layout_.get(points + i * step));
+    });
     info_.read_seconds += since(t0);
     const auto t1 = Clock::now();
     sheet_.prepare(options_.threads, &sample);
@@ -139,7 +170,7 @@ class MapJob {
   }
 
   std::string in_;
-  PcdChunkReader reader_;
+  MapPoints reader_;
   std::vector<pcl::PCLPointField> fields_;
   XyzLayout layout_;
   const RubberSheet& sheet_;
@@ -365,7 +396,8 @@ void warpPipeline(MapJob& job, const std::string& out) {
 void warpPcdFile(const std::string& in, const std::string& out, const RubberSheet& sheet,
                  const MapStreamOptions& options, MapInfo& info) {
   MapJob job(in, sheet, options, info);
-  if (!options.in_place || !warpInPlace(job, in, out)) warpPipeline(job, out);
+  const bool binary = job.header().data == PcdHeader::Data::kBinary;
+  if (!options.in_place || !binary || !warpInPlace(job, in, out)) warpPipeline(job, out);
   job.finish();
 }
 

@@ -11,6 +11,7 @@
 #include <fstream>
 #include <limits>
 
+#include "flexcloud/io/pcd_ascii.h"
 #include "flexcloud/io/pcd_header.h"
 #include "flexcloud/io/pcd_stream.h"
 #include "flexcloud/types.h"
@@ -43,87 +44,12 @@ std::string readBody(const std::string& path, const PcdHeader& h) {
   return body;
 }
 
-/// One ascii value into `out` as the field's binary type; false when it is not such a value.
-bool parseValue(const std::string& tok, const PcdField& f, std::uint8_t* out) {
-  const char* s = tok.c_str();
-  char* end = nullptr;
-  errno = 0;
-  if (f.type == 'F') {
-    const double v = std::strtod(s, &end);
-    if (end == s || *end != '\0') return false;
-    if (f.size == 4) {
-      if (std::isfinite(v) && std::abs(v) > std::numeric_limits<float>::max()) return false;
-      const auto x = static_cast<float>(v);
-      std::memcpy(out, &x, 4);
-    } else {
-      std::memcpy(out, &v, 8);
-    }
-    return true;
-  }
-  const unsigned bits = static_cast<unsigned>(8 * f.size);
-  if (f.type == 'I') {
-    const long long v = std::strtoll(s, &end, 10);
-    if (end == s || *end != '\0' || errno == ERANGE) return false;
-    if (bits < 64 && (v < -(1LL << (bits - 1)) || v >= (1LL << (bits - 1)))) return false;
-    std::memcpy(out, &v, f.size);  // little-endian: the low bytes
-    return true;
-  }
-  if (tok[0] == '-') return false;
-  const unsigned long long v = std::strtoull(s, &end, 10);
-  if (end == s || *end != '\0' || errno == ERANGE) return false;
-  if (bits < 64 && v >= (1ULL << bits)) return false;
-  std::memcpy(out, &v, f.size);
-  return true;
-}
-
 void readAscii(const std::string& path, const PcdHeader& h, pcl::PCLPointCloud2& cloud) {
-  const std::string body = readBody(path, h);
+  PcdAsciiReader reader(path);
   cloud.data.resize(h.points * h.point_step);  // bounded by the body's size (header check)
-  std::size_t values = 0;
-  for (const auto& f : h.fields) values += f.count;
-  // Line numbers in messages count from the file's first line.
-  std::size_t line_no = h.header_lines;
-  std::size_t point = 0;
-  std::size_t pos = 0;
-  std::vector<std::string> tokens;
-  while (pos < body.size()) {
-    std::size_t end = body.find('\n', pos);
-    if (end == std::string::npos) end = body.size();
-    const std::string line = body.substr(pos, end - pos);
-    pos = end + 1;
-    ++line_no;
-    tokens.clear();
-    std::size_t i = 0;
-    while (i < line.size()) {
-      while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
-      const std::size_t j = i;
-      while (i < line.size() && !std::isspace(static_cast<unsigned char>(line[i]))) ++i;
-      if (i > j) tokens.push_back(line.substr(j, i - j));
-    }
-    if (tokens.empty()) continue;
-    const std::string where = path + ":" + std::to_string(line_no) + ": ";
-    if (point == h.points)
-      throw Error(where + "more points than the header's " + std::to_string(h.points));
-    if (tokens.size() != values) {
-      throw Error(where + "expected " + std::to_string(values) + " values, found " +
-                  std::to_string(tokens.size()));
-    }
-    std::uint8_t* dst = cloud.data.data() + point * h.point_step;
-    std::size_t t = 0;
-    for (const auto& f : h.fields) {
-      for (std::size_t c = 0; c < f.count; ++c, ++t) {
-        if (!parseValue(tokens[t], f, dst + f.offset + c * f.size)) {
-          throw Error(where + "'" + tokens[t] + "' is not a value of field " + f.name + " (" +
-                      std::string(1, f.type) + std::to_string(f.size) + ")");
-        }
-      }
-    }
-    ++point;
-  }
-  if (point != h.points) {
-    throw Error(path + ": the ascii body holds " + std::to_string(point) + " points, the header " +
-                std::to_string(h.points) + " (file cut short?)");
-  }
+  reader.read(cloud.data.data(), h.points);
+  std::vector<std::uint8_t> extra(std::max<std::size_t>(1, h.point_step));
+  reader.read(extra.data(), 1);  // throws for a point beyond the header's count
 }
 
 void readCompressed(const std::string& path, const PcdHeader& h, pcl::PCLPointCloud2& cloud) {

@@ -275,7 +275,9 @@ MapSource openMap(const Options& o, const Progress& log, MapInfo& info) {
   if (header.points == 0) throw Error(o.map + ": the map holds no points");
   XyzLayout::of(pclFields(header), header.point_step, header.points,
                 header.points * header.point_step, o.map);
-  m.stream = header.data == PcdHeader::Data::kBinary;
+  // Binary and ascii maps are streamed; a binary_compressed body is one LZF block of every
+  // point's fields one after the other, read whole.
+  m.stream = header.data != PcdHeader::Data::kBinaryCompressed;
   info.input = o.map;
   if (!m.stream) {
     log.say("reading " + o.map);
@@ -311,7 +313,7 @@ MapWriter warpLoadedMap(const Options& o, const Params& params, const Georeferen
   };
 }
 
-/// The writer that streams a binary map through the warp into the output.
+/// The writer that streams a binary or ascii map through the warp into the output.
 MapWriter streamedMap(const Options& o, const Params& params, const GeoreferenceResult& r,
                       const Progress& log, MapInfo& info) {
   return [&o, &params, &r, &log, &info](const std::string& path) {

@@ -1,13 +1,16 @@
 // The command-line tools, run as a user runs them: simulate_drive, then georeference on the bag
 // and on text files, with good and bad input.
 #include <gtest/gtest.h>
+#include <pcl/io/pcd_io.h>
 #include <sys/wait.h>
 
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "flexcloud/cloud_warp.h"
 #include "flexcloud/io/pcd_io.h"
@@ -170,6 +173,63 @@ TEST_F(Tools, BadInputIsAOneLineErrorAndKeepsPreviousOutputs) {
   for (const auto& e : fs::directory_iterator(o)) files += e.is_regular_file() ? 1 : 0;
   EXPECT_EQ(files, 1u);
   for (const auto& e : fs::directory_iterator(o)) EXPECT_FALSE(e.is_directory()) << e.path();
+}
+
+/// An ascii map goes through the tool streamed, like a binary one, to the same result; a bad
+/// line deep in it, or a body cut short, ends the run with its place named and no output.
+TEST_F(Tools, AsciiMapsAreStreamedAndTheirBadLinesNamed) {
+  const pcl::PCLPointCloud2 map = readPcd(sim() + "/map.pcd");
+  const std::string ascii = out("ascii_map.pcd");
+  ASSERT_EQ(pcl::PCDWriter().writeASCII(ascii, map), 0);
+  const std::string args = " -q --bag " + sim() + "/drive.bag" + datum() + " --map ";
+  const Result a = sh(bin("georeference") + args + ascii + " --out " + out("ascii"));
+  ASSERT_EQ(a.code, 0) << a.output;
+  const Result b = sh(bin("georeference") + args + sim() + "/map.pcd --out " + out("binary"));
+  ASSERT_EQ(b.code, 0) << b.output;
+  const pcl::PCLPointCloud2 from_ascii = readPcd(out("ascii") + "/map_georeferenced.pcd");
+  const pcl::PCLPointCloud2 from_binary = readPcd(out("binary") + "/map_georeferenced.pcd");
+  const XyzLayout la = XyzLayout::of(from_ascii, "ascii"), lb = XyzLayout::of(from_binary, "bin");
+  ASSERT_EQ(la.points, lb.points);  // (PCL's ascii writer leaves the padding bytes out)
+  double worst = 0.0;
+  for (std::size_t i = 0; i < la.points; ++i) {
+    worst = std::max(worst, (la.get(from_ascii.data.data() + i * la.point_step) -
+                             lb.get(from_binary.data.data() + i * lb.point_step))
+                                .norm());
+  }
+  EXPECT_LT(worst, 1e-3);  // the ascii text rounds the input a little
+  EXPECT_EQ(readJson(out("ascii") + "/report.json")["counts"]["map_points"], la.points);
+
+  std::ifstream in(ascii);
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  const std::size_t header = lines.size() - la.points;
+  const std::size_t bad = header + 40000;  // line bad + 1 of the file
+  std::vector<std::string> broken = lines;
+  std::istringstream values(lines[bad]);
+  std::vector<std::string> v{std::istream_iterator<std::string>(values), {}};
+  v[2] = "oops";  // the z value
+  broken[bad].clear();
+  for (const auto& x : v) broken[bad] += x + " ";
+  std::ofstream(out("bad_line.pcd")) << [&] {
+    std::string t;
+    for (const auto& l : broken) t += l + "\n";
+    return t;
+  }();
+  std::ofstream cut(out("cut.pcd"));
+  for (std::size_t i = 0; i < lines.size() - 10; ++i) cut << lines[i] << "\n";
+  cut.close();
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"bad_line.pcd", "bad_line.pcd:" + std::to_string(bad + 1) + ": 'oops' is not a value"},
+      {"cut.pcd", "holds " + std::to_string(la.points - 10) + " points, the header " +
+                      std::to_string(la.points) + " (file cut short?)"}};
+  for (const auto& [file, says] : cases) {
+    const std::string o = out("none_" + file);
+    const Result r = sh(bin("georeference") + args + out(file) + " --out " + o);
+    EXPECT_EQ(r.code, 1) << r.output;
+    EXPECT_NE(r.output.find(says), std::string::npos) << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+    EXPECT_FALSE(fs::exists(o)) << "nothing may be left behind";
+  }
 }
 
 /// Runs the tool, sends `sig` when it reports the warp, returns its exit code and stderr.

@@ -2,6 +2,7 @@
 // silently wrong point.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 #include <fstream>
 
@@ -103,6 +104,49 @@ TEST(PcdRobustness, AsciiKeepsNanPointsAndEveryFieldType) {
   EXPECT_EQ(n, 65535);
   EXPECT_EQ(big, -9000000000LL);
   EXPECT_EQ(c.fields.back().datatype, pcl::PCLPointField::INT64);
+}
+
+/// The fast number reader takes what the C library's took: a leading '+', hexadecimal floats,
+/// infinities, subnormals, CRLF line ends; and refuses what it refused.
+TEST(PcdRobustness, AsciiValuesReadAsTheCLibraryReadsThem) {
+  const std::string bytes =
+      header("x y z t n", "4 4 8 2 2", "F F F I U", "1 1 1 1 1", 2, 1, "ascii") +
+      "+1.5 0x1p3 -inf +7 +8\r\n-0.25 1e2 1e-310 -32768 0\n";
+  const pcl::PCLPointCloud2 c = readPcd(writeTempFile("c_numbers.pcd", bytes));
+  const XyzLayout l = XyzLayout::of(c, "numbers");
+  const Eigen::Vector3d a = l.get(c.data.data()), b = l.get(c.data.data() + c.point_step);
+  EXPECT_EQ(a.x(), 1.5);
+  EXPECT_EQ(a.y(), 8.0);
+  EXPECT_TRUE(std::isinf(a.z()) && a.z() < 0.0);
+  EXPECT_EQ(b, Eigen::Vector3d(-0.25, 100.0, 1e-310));
+  std::int16_t t;
+  std::uint16_t n;
+  std::memcpy(&t, c.data.data() + 16, 2);
+  std::memcpy(&n, c.data.data() + 18, 2);
+  EXPECT_EQ(t, 7);
+  EXPECT_EQ(n, 8);
+  std::memcpy(&t, c.data.data() + c.point_step + 16, 2);
+  EXPECT_EQ(t, -32768);
+  for (const char* bad : {"1.5x", "--1", "1..5", "0x", "+-1"}) {
+    const std::string path = writeTempFile(
+        "c_bad.pcd", header("x", "4", "F", "1", 1, 1, "ascii") + std::string(bad) + "\n");
+    EXPECT_NE(errorOf(path).find("is not a value of field x"), std::string::npos) << bad;
+  }
+  const std::string minus =
+      writeTempFile("c_minus.pcd", header("n", "2", "U", "1", 1, 1, "ascii") + std::string("-0\n"));
+  EXPECT_NE(errorOf(minus).find("is not a value of field n"), std::string::npos);
+}
+
+/// A "line" of megabytes is not a point: the reader says so instead of taking the whole file
+/// into memory to find its end.
+TEST(PcdRobustness, AnAsciiLineOfMegabytesIsAnError) {
+  const std::string path =
+      writeTempFile("long_line.pcd", header("x y z", "4 4 4", "F F F", "1 1 1", 2, 1, "ascii") +
+                                         "1 2 3\n" + std::string(std::size_t{20} << 20, '7'));
+  const std::string e = errorOf(path);
+  EXPECT_NE(e.find("long_line.pcd:13: a line longer than 1048576 bytes is not a point"),
+            std::string::npos)
+      << e;
 }
 
 TEST(PcdRobustness, OrganizedAsciiKeepsItsShape) {
