@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "flexcloud/io/pcd_ascii.h"
+#include "flexcloud/io/pcd_compressed.h"
 #include "flexcloud/io/pcd_io.h"
 #include "flexcloud/io/pcd_stream.h"
 
@@ -64,26 +65,34 @@ class TruthSource {
   std::vector<std::uint8_t> buffer_;
 };
 
-/// The map's points in file order from a binary or an ascii body, and a sample spread over it.
+/// The map's points in file order from a binary, ascii or compressed body, and a sample
+/// spread over it.
 class MapPoints {
  public:
   explicit MapPoints(const std::string& path) {
-    const PcdHeader h = readPcdHeader(path);
-    if (h.data == PcdHeader::Data::kBinary) {
-      binary_.emplace(path);
-    } else if (h.data == PcdHeader::Data::kAscii) {
-      ascii_.emplace(path);
-    } else {
-      throw Error(path + ": a binary_compressed map is read whole, not streamed");
+    switch (readPcdHeader(path).data) {
+      case PcdHeader::Data::kBinary:
+        binary_.emplace(path);
+        break;
+      case PcdHeader::Data::kAscii:
+        ascii_.emplace(path);
+        break;
+      case PcdHeader::Data::kBinaryCompressed:
+        compressed_.emplace(path);
+        break;
     }
   }
-  const PcdHeader& header() const { return binary_ ? binary_->header() : ascii_->header(); }
+  const PcdHeader& header() const {
+    return binary_ ? binary_->header() : ascii_ ? ascii_->header() : compressed_->header();
+  }
   std::size_t read(std::uint8_t* buf, std::size_t max_points) {
-    return binary_ ? binary_->read(buf, max_points) : ascii_->read(buf, max_points);
+    if (binary_) return binary_->read(buf, max_points);
+    return ascii_ ? ascii_->read(buf, max_points) : compressed_->read(buf, max_points);
   }
   /// Up to `blocks` runs of up to `block` points spread over the file, handed to fn.
   void sample(std::size_t blocks, std::size_t block, const PcdAsciiReader::SampleFn& fn) const {
     if (ascii_) return ascii_->sample(blocks, block, fn);
+    if (compressed_) return compressed_->sample(blocks, block, fn);
     const PcdHeader& h = header();
     block = std::min(block, h.points);
     std::vector<std::uint8_t> buf(block * h.point_step);
@@ -97,6 +106,7 @@ class MapPoints {
  private:
   std::optional<PcdChunkReader> binary_;
   std::optional<PcdAsciiReader> ascii_;
+  std::optional<PcdCompressedReader> compressed_;
 };
 
 /// One map file being warped: the per-chunk work shared by both ways of moving the bytes.

@@ -5,12 +5,10 @@
 
 #include <ros/time.h>
 
-#include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <iostream>
 #include <map>
-#include <optional>
 
 #include "cli.h"
 #include "flexcloud/cloud_warp.h"
@@ -21,7 +19,6 @@
 #include "flexcloud/io/memory.h"
 #include "flexcloud/io/outputs.h"
 #include "flexcloud/io/pcd_header.h"
-#include "flexcloud/io/pcd_io.h"
 #include "flexcloud/io/pcd_stream.h"
 #include "flexcloud/io/report_plot.h"
 #include "flexcloud/io/text_io.h"
@@ -175,10 +172,6 @@ class Progress {
   bool quiet_;
 };
 
-double since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
 void checkCancel() { g_interrupt.check("georeference"); }
 
 DriveInput loadDrive(const Options& o, const Progress& log, std::string& map_frame) {
@@ -260,60 +253,20 @@ std::string pointsLlText(const GeoreferenceResult& r, const std::vector<Eigen::V
   return out;
 }
 
-/// The map as the run will warp it: a binary PCD is streamed (read, warped and written chunk by
-/// chunk: memory stays small whatever its size); other encodings are loaded whole. Checked
-/// before the pipeline runs, so a bad map costs nothing.
-struct MapSource {
-  bool stream = false;
-  std::optional<pcl::PCLPointCloud2> cloud;
-};
-
-MapSource openMap(const Options& o, const Progress& log, MapInfo& info) {
-  MapSource m;
-  if (o.map.empty()) return m;
+/// Checks the map's header before the pipeline runs, so a bad map costs nothing: it is then
+/// streamed in every encoding (read, warped and written chunk by chunk: memory stays small
+/// whatever its size). False when there is no map.
+bool checkMap(const Options& o, MapInfo& info) {
+  if (o.map.empty()) return false;
   const PcdHeader header = readPcdHeader(o.map);
   if (header.points == 0) throw Error(o.map + ": the map holds no points");
   XyzLayout::of(pclFields(header), header.point_step, header.points,
                 header.points * header.point_step, o.map);
-  // Binary and ascii maps are streamed; a binary_compressed body is one LZF block of every
-  // point's fields one after the other, read whole.
-  m.stream = header.data != PcdHeader::Data::kBinaryCompressed;
   info.input = o.map;
-  if (!m.stream) {
-    log.say("reading " + o.map);
-    const auto t0 = std::chrono::steady_clock::now();
-    m.cloud = readPcd(o.map);
-    info.read_seconds = since(t0);
-  }
-  return m;
+  return true;
 }
 
-/// Warps a map held in memory now (comparing with the truth before and after) and returns the
-/// writer of the result.
-MapWriter warpLoadedMap(const Options& o, const Params& params, const GeoreferenceResult& r,
-                        const Progress& log, pcl::PCLPointCloud2& map, MapInfo& info) {
-  std::optional<pcl::PCLPointCloud2> truth;
-  if (!o.truth.empty()) {
-    truth = readPcd(o.truth);
-    info.has_truth = true;
-    info.truth_aligned = compareClouds(
-        map, *truth, [&](const Eigen::Vector3d& p) { return Eigen::Vector3d(r.T_enu_map * p); });
-  }
-  log.say("warping the map");
-  const auto t0 = std::chrono::steady_clock::now();
-  info.warp = warpCloud(map, *r.sheet, params.threads, o.map, g_interrupt);
-  info.warp_seconds = since(t0);
-  if (truth) {
-    info.truth_rubbersheet = compareClouds(map, *truth, [](const Eigen::Vector3d& p) { return p; });
-  }
-  return [&map, &info](const std::string& path) {
-    const auto t1 = std::chrono::steady_clock::now();
-    writePcdBinary(path, map);
-    info.write_seconds = since(t1);
-  };
-}
-
-/// The writer that streams a binary or ascii map through the warp into the output.
+/// The writer that streams a map (any encoding) through the warp into the output.
 MapWriter streamedMap(const Options& o, const Params& params, const GeoreferenceResult& r,
                       const Progress& log, MapInfo& info) {
   return [&o, &params, &r, &log, &info](const std::string& path) {
@@ -335,7 +288,7 @@ int run(int argc, char** argv) {
   const DriveInput drive = loadDrive(o, log, context.frames.map);
   checkCancel();
   MapInfo info;
-  MapSource map = openMap(o, log, info);
+  const bool has_map = checkMap(o, info);
   checkCancel();
 
   std::vector<Eigen::Vector3d> to_ll;
@@ -346,15 +299,9 @@ int run(int argc, char** argv) {
   if (!o.to_ll.empty() && !r.datum) throw Error("--to-ll: the GNSS came without a datum");
   checkCancel();
 
-  MapWriter write_map;
-  if (map.stream) {
-    write_map = streamedMap(o, params, r, log, info);
-  } else if (map.cloud) {
-    write_map = warpLoadedMap(o, params, r, log, *map.cloud, info);
-  }
+  const MapWriter write_map = has_map ? streamedMap(o, params, r, log, info) : MapWriter();
   checkCancel();
   log.say("writing " + o.out);
-  const bool has_map = !o.map.empty();
   context.map = has_map ? &info : nullptr;
   context.cancel = &g_interrupt;
   // The map is written first, so the peak includes it.

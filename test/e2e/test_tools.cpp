@@ -232,6 +232,45 @@ TEST_F(Tools, AsciiMapsAreStreamedAndTheirBadLinesNamed) {
   }
 }
 
+/// A binary_compressed map is streamed too (its LZF block decoded a piece at a time) to the
+/// same points as the binary map; a corrupt block ends the run with no output.
+TEST_F(Tools, CompressedMapsAreStreamedAndCorruptOnesRefused) {
+  const pcl::PCLPointCloud2 map = readPcd(sim() + "/map.pcd");
+  const std::string packed = out("compressed_map.pcd");
+  ASSERT_EQ(pcl::PCDWriter().writeBinaryCompressed(packed, map), 0);
+  const std::string args = " -q --bag " + sim() + "/drive.bag" + datum() + " --map ";
+  const Result a = sh(bin("georeference") + args + packed + " --out " + out("compressed"));
+  ASSERT_EQ(a.code, 0) << a.output;
+  const Result b = sh(bin("georeference") + args + sim() + "/map.pcd --out " + out("binary2"));
+  ASSERT_EQ(b.code, 0) << b.output;
+  const pcl::PCLPointCloud2 from_packed = readPcd(out("compressed") + "/map_georeferenced.pcd");
+  const pcl::PCLPointCloud2 from_binary = readPcd(out("binary2") + "/map_georeferenced.pcd");
+  const XyzLayout la = XyzLayout::of(from_packed, "packed"), lb = XyzLayout::of(from_binary, "b");
+  ASSERT_EQ(la.points, lb.points);
+  std::size_t differ = 0;
+  for (std::size_t i = 0; i < la.points; ++i) {
+    const Eigen::Vector3d p = la.get(from_packed.data.data() + i * la.point_step);
+    const Eigen::Vector3d q = lb.get(from_binary.data.data() + i * lb.point_step);
+    differ += (p - q).norm() > 0.0 || !p.allFinite();
+  }
+  EXPECT_EQ(differ, 0u);  // the same float32 inputs, the same result
+
+  std::string bytes;
+  {
+    std::ifstream in(packed, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const std::size_t body = bytes.find("DATA binary_compressed\n") + 23 + 8;
+  for (std::size_t i = body; i < body + 64; ++i) bytes[i] = '\xff';  // references before the start
+  std::ofstream(out("corrupt.pcd"), std::ios::binary) << bytes;
+  const Result r = sh(bin("georeference") + args + out("corrupt.pcd") + " --out " + out("none_c"));
+  EXPECT_EQ(r.code, 1) << r.output;
+  EXPECT_NE(r.output.find("corrupt.pcd: the compressed body is corrupt"), std::string::npos)
+      << r.output;
+  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  EXPECT_FALSE(fs::exists(out("none_c")));
+}
+
 /// Runs the tool, sends `sig` when it reports the warp, returns its exit code and stderr.
 Result interruptDuringWarp(const std::vector<std::string>& args, int sig) {
   int fds[2];

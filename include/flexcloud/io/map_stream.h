@@ -1,5 +1,5 @@
 #pragma once
-// Warping a binary or ascii PCD map file into a binary one chunk by chunk: memory stays at a
+// Warping a PCD map file of any encoding into a binary one chunk by chunk: memory stays at a
 // few chunks whatever the map's size, and reading, warping and writing overlap.
 
 #include <Eigen/Geometry>
@@ -23,9 +23,10 @@ struct MapStreamOptions {
   const CancelToken* cancel = &neverCancelled();
 };
 
-/// Warps binary or ascii PCD `in` into binary PCD `out` (written under a temporary name, renamed
-/// when complete) and fills info's warp counts, stage seconds and, with a truth, its errors. Throws
-/// Error for a bad file, a truth of another size, a write failure or cancellation.
+/// Warps PCD `in` (binary, ascii or binary_compressed) into binary PCD `out` (written under a
+/// temporary name, renamed when complete) and fills info's warp counts, stage seconds and, with a
+/// truth, its errors. Throws Error for a bad file, a truth of another size, a write failure or
+/// cancellation.
 void warpPcdFile(const std::string& in, const std::string& out, const RubberSheet& sheet,
                  const MapStreamOptions& options, MapInfo& info);
 
