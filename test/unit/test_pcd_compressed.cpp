@@ -50,7 +50,9 @@ std::pair<std::string, std::size_t> packed(const std::vector<std::uint8_t>& raw,
 
 TEST(LzfDecoder, MatchesPclsCodecInPiecesOfAnySizeAndFromCheckpoints) {
   const std::vector<std::uint8_t> raw = mixedBytes(300000, 5);
-  const auto [path, size] = packed(raw, "lzf_mixed.bin");
+  const auto block = packed(raw, "lzf_mixed.bin");
+  const std::string& path = block.first;
+  const std::size_t size = block.second;
   const int fd = ::open(path.c_str(), O_RDONLY);
   ASSERT_GE(fd, 0);
   LzfDecoder d(fd, 0, size, raw.size(), path);
@@ -77,7 +79,9 @@ TEST(LzfDecoder, MatchesPclsCodecInPiecesOfAnySizeAndFromCheckpoints) {
 
 TEST(LzfDecoder, CorruptBlocksAreErrorsNotCrashes) {
   const std::vector<std::uint8_t> raw = mixedBytes(50000, 7);
-  const auto [path, size] = packed(raw, "lzf_corrupt.bin");
+  const auto block = packed(raw, "lzf_corrupt.bin");
+  const std::string path = block.first;  // (a lambda below takes these: no structured binding)
+  const std::size_t size = block.second;
   const int fd = ::open(path.c_str(), O_RDONLY);
   ASSERT_GE(fd, 0);
   const auto errorOf = [&](std::uint64_t in, std::uint64_t out) {
