@@ -68,9 +68,11 @@ if [ "${sanitize}" = 1 ]; then
   mkdir -p "${results}/sanitize"
   # The accuracy tests (the targets on three seeds of seven drives, the simulated drives' map
   # error, the urban and lever-arm drives) run the same code as the other end-to-end tests and
-  # took most of the sanitizer run's time: they run in the suite only. The unit and end-to-end
-  # binaries run side by side.
+  # took most of the sanitizer run's time: they run in the suite only; so do the tool's runs on
+  # ascii and compressed maps, whose readers the unit tests and fuzz_pcd take through ASan. The
+  # unit and end-to-end binaries run side by side.
   SANITIZE_FILTER="-Targets/Accuracy.*:AccuracyMore.*:SimulatedDrive.*OfTheTruth"
+  SANITIZE_FILTER+=":Tools.AsciiMaps*:Tools.CompressedMaps*"
   for t in flexcloud_unit_tests flexcloud_e2e_tests; do
     log "running ${t} under AddressSanitizer and UndefinedBehaviorSanitizer"
     (ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
