@@ -90,7 +90,7 @@ class MapPoints {
     return ascii_ ? ascii_->read(buf, max_points) : compressed_->read(buf, max_points);
   }
   /// Up to `blocks` runs of up to `block` points spread over the file, handed to fn.
-  void sample(std::size_t blocks, std::size_t block, const PcdAsciiReader::SampleFn& fn) const {
+  void sample(std::size_t blocks, std::size_t block, const PcdPointsFn& fn) const {
     if (ascii_) return ascii_->sample(blocks, block, fn);
     if (compressed_) return compressed_->sample(blocks, block, fn);
     const PcdHeader& h = header();

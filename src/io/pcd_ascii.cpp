@@ -186,7 +186,7 @@ std::size_t PcdAsciiReader::read(std::uint8_t* buf, std::size_t max_points) {
   return n;
 }
 
-void PcdAsciiReader::sample(std::size_t blocks, std::size_t block, const SampleFn& fn) const {
+void PcdAsciiReader::sample(std::size_t blocks, std::size_t block, const PcdPointsFn& fn) const {
   const std::uint64_t body = header_.file_size - header_.data_offset;
   std::string window(kSampleBytes, '\0');
   std::vector<std::uint8_t> points(block * header_.point_step);

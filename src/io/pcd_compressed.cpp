@@ -158,7 +158,8 @@ std::size_t PcdCompressedReader::read(std::uint8_t* buf, std::size_t max_points)
   return n;
 }
 
-void PcdCompressedReader::sample(std::size_t blocks, std::size_t block, const SampleFn& fn) const {
+void PcdCompressedReader::sample(std::size_t blocks, std::size_t block,
+                                 const PcdPointsFn& fn) const {
   // The decoders of the x, y and z columns, from where read() has got to.
   std::vector<std::pair<const PcdField*, LzfDecoder>> axes;
   for (const char* name : {"x", "y", "z"}) {

@@ -5,7 +5,6 @@
 // buffer whatever the file's size.
 
 #include <cstdint>
-#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -29,11 +28,10 @@ class PcdAsciiReader {
   /// header's count, and at the end when the body holds fewer points than the header says.
   std::size_t read(std::uint8_t* buf, std::size_t max_points);
 
-  using SampleFn = std::function<void(const std::uint8_t* points, std::size_t n)>;
   /// Calls fn for up to `blocks` runs of up to `block` points read at byte offsets spread
   /// evenly over the body (lines that do not parse are passed over: read() reports them with
   /// their line number). For placing the location grid; not the points' file order.
-  void sample(std::size_t blocks, std::size_t block, const SampleFn& fn) const;
+  void sample(std::size_t blocks, std::size_t block, const PcdPointsFn& fn) const;
 
  private:
   bool nextLine(std::string_view* line);

@@ -8,7 +8,6 @@
 
 #include <array>
 #include <cstdint>
-#include <functional>
 #include <string>
 #include <vector>
 
@@ -68,10 +67,9 @@ class PcdCompressedReader {
   /// layout of the header); returns how many, 0 at the end.
   std::size_t read(std::uint8_t* buf, std::size_t max_points);
 
-  using SampleFn = std::function<void(const std::uint8_t* points, std::size_t n)>;
   /// Calls fn for `blocks` runs of up to `block` points spread evenly over the cloud, with
   /// only the fields x, y and z filled in (the rest zero): for placing the location grid.
-  void sample(std::size_t blocks, std::size_t block, const SampleFn& fn) const;
+  void sample(std::size_t blocks, std::size_t block, const PcdPointsFn& fn) const;
 
  private:
   std::string path_;

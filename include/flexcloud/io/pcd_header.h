@@ -3,6 +3,7 @@
 // with '#' crashes it), so every file is checked here before its body is read.
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,10 @@ struct PcdHeader {
   std::size_t header_lines = 0;  ///< lines before the body (for line numbers in body errors)
   std::uint64_t file_size = 0;
 };
+
+/// Receives `n` points in the binary layout of a header (point_step bytes each): how the
+/// streamed readers hand over a sample of a map.
+using PcdPointsFn = std::function<void(const std::uint8_t* points, std::size_t n)>;
 
 /// Parses and checks the header of a PCD file: known keywords, consistent field lists, types
 /// and sizes, WIDTH * HEIGHT == POINTS, a body long enough for binary data. Throws Error

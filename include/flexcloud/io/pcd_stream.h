@@ -1,7 +1,7 @@
 #pragma once
 // Binary PCD bodies read and written in chunks with plain read()/write(): no memory map, no copy
-// beyond the caller's buffer, any size. ASCII bodies are read in chunks by pcd_ascii.h;
-// compressed ones are read whole (pcd_io.h).
+// beyond the caller's buffer, any size. ASCII and compressed bodies are read in chunks by
+// pcd_ascii.h and pcd_compressed.h.
 
 #include <pcl/PCLPointCloud2.h>
 
