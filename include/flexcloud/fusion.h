@@ -56,6 +56,12 @@ struct FusionResult {
   double estimated_std_v = 0.0;
   /// Median std-dev the fused fixes were weighted with (horizontal, m).
   double median_std_h = 0.0;
+  /// Factor the slam_*_noise parameters were multiplied with (1: as given). It grows when the
+  /// fused trajectory stays further from the GNSS's inliers than their own noise allows: a SLAM
+  /// that drifts more than its noise parameters say.
+  double slam_noise_scale = 1.0;
+  /// Upper bound of the GNSS's horizontal white noise from its own roughness, m.
+  double gnss_roughness_h = 0.0;
   std::size_t keyframes = 0;
   std::size_t used = 0;
   std::size_t outliers = 0;

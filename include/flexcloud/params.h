@@ -42,6 +42,7 @@ struct Params {
   double gnss_std_floor;
   double outlier_threshold;
   double max_time_offset;
+  double max_slam_noise_scale;
   double lever_arm_x;
   double lever_arm_y;
   double lever_arm_z;

@@ -17,6 +17,10 @@ constexpr double kDeg = 3.14159265358979323846 / 180.0;
 constexpr std::size_t kMaxKeyframes = 1500;
 constexpr double kRejectWeight = 0.1;     // a fix whose final weight is below this is an outlier
 constexpr double kUnknownStdStart = 1.0;  // m, first guess for fixes without a std-dev
+// The fused trajectory may leave the GNSS's inliers at this many times their own noise before
+// the SLAM's noise is taken as set too low; rounds of raising it.
+constexpr double kStiffSlam = 2.0;
+constexpr int kNoiseRounds = 2;
 
 using Vec3 = Eigen::Vector3d;
 
@@ -28,11 +32,33 @@ struct Noise {
   double scale;        ///< change of the scale error: 1 / sqrt(m)
 };
 
-Noise noiseOf(const Params& p) {
-  const double per_sqrt_km = 1.0 / std::sqrt(1000.0);
+Noise noiseOf(const Params& p, double factor) {
+  const double per_sqrt_km = factor / std::sqrt(1000.0);
   return {p.slam_rotation_noise * kDeg * per_sqrt_km, p.slam_translation_noise * per_sqrt_km,
           p.slam_drift_noise * kDeg / 1000.0 * per_sqrt_km,
           p.slam_scale_noise / 100.0 * per_sqrt_km};
+}
+
+/// Median absolute value; x is reordered.
+double medianAbs(std::vector<double>& x) {
+  if (x.empty()) return std::numeric_limits<double>::quiet_NaN();
+  for (double& v : x) v = std::abs(v);
+  std::nth_element(x.begin(), x.begin() + x.size() / 2, x.end());
+  return x[x.size() / 2];
+}
+
+/// An upper bound of the horizontal white noise of a track, m: the third difference of
+/// consecutive positions takes out position, speed and acceleration, and has 20 times the
+/// variance of white noise (median |N(0, 20 s^2)| = 3.016 s); what the motion leaves in it
+/// only raises the bound.
+double roughnessBound(const std::vector<Vec3>& track) {
+  std::vector<double> d3;
+  for (std::size_t j = 0; j + 3 < track.size(); ++j) {
+    const Vec3 d = track[j + 3] - 3.0 * track[j + 2] + 3.0 * track[j + 1] - track[j];
+    d3.push_back(d.x());
+    d3.push_back(d.y());
+  }
+  return medianAbs(d3) / 3.016;
 }
 
 Eigen::Isometry3d isometry(const Pose& p) {
@@ -180,7 +206,7 @@ class Fusion {
  public:
   Fusion(const Trajectory& poses, const std::vector<GnssPoint>& gnss, const Params& params,
          const CancelToken& cancel)
-      : poses_(poses), gnss_(gnss), params_(params), cancel_(cancel), noise_(noiseOf(params)) {}
+      : poses_(poses), gnss_(gnss), params_(params), cancel_(cancel), noise_(noiseOf(params, 1)) {}
 
   FusionResult run(const Eigen::Isometry3d& T_enu_map) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -196,6 +222,7 @@ class Fusion {
     for (auto& f : fixes_) f.factor.sigma = &f.sigma;  // fixes_ stays put from here on
     loss_ = std::make_unique<GemanMcClure>(params_.outlier_threshold);
     solveStages();
+    adaptSlamNoise(T_enu_map);
     collect();
     out_.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return out_;
@@ -203,6 +230,7 @@ class Fusion {
 
  private:
   void makeKeyframes(const Eigen::Isometry3d& T_enu_map) {
+    keyframes_.clear();
     for (std::size_t i : chooseKeyframes(poses_, params_.fusion_spacing)) {
       Keyframe k;
       k.pose = i;
@@ -326,6 +354,46 @@ class Fusion {
     }
   }
 
+  /// Variance-component check of the SLAM's noise: the GNSS's inliers should stay from the
+  /// fused trajectory within their own noise (the reported std-dev, or for fixes without one
+  /// the roughness bound of the GNSS track, which does not depend on the SLAM). Where they stay
+  /// further by a factor beyond kStiffSlam, the SLAM was held stiffer than it deserves (its
+  /// errors were taken for GNSS noise and good fixes rejected): its noise is raised by that
+  /// factor and the fusion solved again from the start.
+  void adaptSlamNoise(const Eigen::Isometry3d& T_enu_map) {
+    std::vector<Vec3> track;
+    for (const auto& f : fixes_) track.push_back(f.factor.fix);
+    roughness_ = std::max(params_.gnss_std_floor, roughnessBound(track));
+    out_.gnss_roughness_h = roughness_;
+    for (int round = 0; round < kNoiseRounds; ++round) {
+      const double stiff = stiffness();
+      const double most = params_.max_slam_noise_scale;
+      if (!(stiff > kStiffSlam) || out_.slam_noise_scale >= most) return;
+      out_.slam_noise_scale = std::min(most, out_.slam_noise_scale * stiff);
+      noise_ = noiseOf(params_, out_.slam_noise_scale);
+      makeKeyframes(T_enu_map);
+      dt_ = 0.0;
+      unknown_h_ = unknown_v_ = kUnknownStdStart;
+      for (auto& f : fixes_) f.own = sigmaOf(gnss_[f.input].std_dev, unknown_h_, unknown_v_);
+      solveStages();
+    }
+  }
+
+  /// Robust spread of the inliers' horizontal residuals in units of their own noise (1 when
+  /// the fused trajectory leaves them as much as their noise says).
+  double stiffness() const {
+    std::vector<double> n;
+    for (const auto& f : fixes_) {
+      if (weightOf(f) < 0.5) continue;
+      const Vec3 e = residualOf(f);
+      const double own = f.known_std ? f.own.x() : roughness_;
+      n.push_back(e.x() / own);
+      n.push_back(e.y() / own);
+    }
+    if (n.size() < 20) return 1.0;
+    return medianAbs(n) / 0.6745;  // median |N(0, 1)|
+  }
+
   /// Squared normalised residual of a fix at the current estimate.
   double squaredResidual(const Fix& f) const {
     const Keyframe& k = keyframes_[f.keyframe];
@@ -382,10 +450,7 @@ class Fusion {
       v.push_back(std::abs(e.z()));
     }
     if (h.size() < 10) return false;
-    auto robust = [](std::vector<double>& x) {  // median absolute value as a 1-sigma
-      std::nth_element(x.begin(), x.begin() + x.size() / 2, x.end());
-      return 1.4826 * x[x.size() / 2];
-    };
+    auto robust = [](std::vector<double>& x) { return 1.4826 * medianAbs(x); };  // a 1-sigma
     const double sh = std::max(params_.gnss_std_floor, robust(h));
     const double sv = std::max(params_.gnss_std_floor, robust(v));
     const bool changed = std::abs(sh - unknown_h_) > 0.2 * unknown_h_ ||
@@ -483,6 +548,7 @@ class Fusion {
   std::vector<Fix> fixes_;
   double dt_ = 0.0;
   double unknown_h_ = kUnknownStdStart, unknown_v_ = kUnknownStdStart;
+  double roughness_ = 0.0;
   std::unique_ptr<GemanMcClure> loss_;
   ceres::EigenQuaternionManifold quaternion_;
   FusionResult out_;

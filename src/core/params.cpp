@@ -82,6 +82,9 @@ ParamTable<P> makeTable() {
                  "Scale of the robust loss: fixes far beyond it lose their pull", live),
       realRow<P>("max_time_offset", &P::max_time_offset, 1.0, 0.0, 10, "s",
                  "Largest GNSS clock offset the fusion estimates (0: none)"),
+      realRow<P>("max_slam_noise_scale", &P::max_slam_noise_scale, 100.0, 1.0, 10000, "",
+                 "Largest factor the fusion raises the slam_*_noise by where the GNSS says the "
+                 "SLAM drifts more (1: never)"),
       realRow<P>("lever_arm_x", &P::lever_arm_x, 0.0, -10, 10, "m",
                  "GNSS antenna in the body frame of the poses, forward"),
       realRow<P>("lever_arm_y", &P::lever_arm_y, 0.0, -10, 10, "m",

@@ -67,6 +67,8 @@ json fusionJson(const FusionResult& f) {
           {"estimated_std_h_m", finiteOrNull(f.estimated_std_h)},
           {"estimated_std_v_m", finiteOrNull(f.estimated_std_v)},
           {"median_std_h_m", f.median_std_h},
+          {"slam_noise_scale", f.slam_noise_scale},
+          {"gnss_roughness_h_m", f.gnss_roughness_h},
           {"stages", f.stages},
           {"seconds", f.seconds}};
 }

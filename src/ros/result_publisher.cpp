@@ -30,6 +30,7 @@ flexcloud::Result toResultMsg(const NodeResult* r, bool success, const std::stri
     m.lever_arm.z = g.fusion->lever_arm.z();
     m.estimated_std_h = g.fusion->estimated_std_h;
     m.estimated_std_v = g.fusion->estimated_std_v;
+    m.slam_noise_scale = g.fusion->slam_noise_scale;
   }
   m.poses = static_cast<std::uint32_t>(g.poses.size());
   m.poses_matched = static_cast<std::uint32_t>(g.poses_matched);
@@ -68,6 +69,7 @@ flexcloud::Georeference::Response toResponse(const flexcloud::Result& msg) {
   res.lever_arm = msg.lever_arm;
   res.estimated_std_h = msg.estimated_std_h;
   res.estimated_std_v = msg.estimated_std_v;
+  res.slam_noise_scale = msg.slam_noise_scale;
   res.poses = msg.poses;
   res.poses_matched = msg.poses_matched;
   res.control_points = msg.control_points;

@@ -6,8 +6,8 @@ namespace flexcloud::sim {
 
 const std::vector<std::string>& scenarioNames() {
   static const std::vector<std::string> names = {
-      "loop_rtk",       "open_rtk",         "loop_urban",       "open_urban",
-      "open_urban_end", "loop_urban_nocov", "loop_offset_lever"};
+      "loop_rtk",       "open_rtk",         "loop_urban",        "open_urban",
+      "open_urban_end", "loop_urban_nocov", "loop_offset_lever", "open_rtk_drifting"};
   return names;
 }
 
@@ -24,6 +24,11 @@ SimParams scenario(const std::string& name, std::uint64_t seed, std::size_t map_
   if (name == "open_urban_end") {
     sp.gnss_errors.multipath_jitter = 0.0;
     sp.gnss_errors.end_false_rtk_s = 35.0;
+  }
+  if (name == "open_rtk_drifting") {
+    // A SLAM whose rotation wanders ten times as much (0.9 deg/sqrt(km) against the fusion's
+    // default slam_rotation_noise of 0.2).
+    sp.rotation_walk *= 10.0;
   }
   if (name == "loop_urban_nocov") sp.gnss_errors.no_covariance_share = 1.0;
   if (name == "loop_offset_lever") {

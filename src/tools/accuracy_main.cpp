@@ -24,7 +24,8 @@ errors against the ground truth (doc/ACCURACY.md).
   --seeds N[,N...]          simulator seeds (default 1,2,3)
   --map-points N            map points per drive (default 100000)
   --scenarios A[,B...]      loop_rtk, open_rtk, loop_urban, open_urban, open_urban_end,
-                            loop_urban_nocov, loop_offset_lever (default: the first five)
+                            loop_urban_nocov, loop_offset_lever, open_rtk_drifting
+                            (default: the first five)
   --control-points N        (default 200)
   --set KEY=VALUE           a flexcloud parameter (repeatable)
   --only-flexcloud          leave out the published method
@@ -96,7 +97,8 @@ void row(const std::string& name, std::uint64_t seed, const std::string& method,
               static_cast<unsigned long>(seed), method.c_str(), m.all.rmse, m.near.rmse, m.mid.rmse,
               m.far.rmse, m.all.max, traj.rmse,
               r.fusion ? ("rejected " + std::to_string(r.fusion->outliers) + ", dt " +
-                          std::to_string(r.fusion->time_offset).substr(0, 6) + " s, " +
+                          std::to_string(r.fusion->time_offset).substr(0, 6) + " s, SLAM noise x" +
+                          std::to_string(r.fusion->slam_noise_scale).substr(0, 4) + ", " +
                           std::to_string(r.beside.size()) + " beside, " +
                           std::to_string(r.fusion->seconds).substr(0, 5) + " s")
                              .c_str()

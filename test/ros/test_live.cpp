@@ -232,6 +232,7 @@ TEST_F(Live, ResultTopicDescribesThePublishedResult) {
   EXPECT_EQ(msg->fixes_rejected, r.fixes_rejected);
   EXPECT_NEAR(msg->time_offset, 0.0, 0.02);       // the drive's clocks agree
   EXPECT_TRUE(std::isnan(msg->estimated_std_h));  // every fix has its covariance
+  EXPECT_EQ(msg->slam_noise_scale, 1.0);          // the simulated SLAM drifts as its noise says
   ros::NodeHandle nh;
   const auto rejected = ros::topic::waitForMessage<visualization_msgs::MarkerArray>(
       "/flexcloud/rejected_fixes", nh, ros::Duration(10.0));

@@ -28,7 +28,7 @@ TEST(FrameConvert, MapPointsRoundTripThroughTheSheetWithin1um) {
   double worst = 0.0;
   for (std::size_t i = 0; i < r.poses.size(); i += 97) {
     // On the trajectory, 20 m beside it and 8 m above it: inside tetrahedra of every kind.
-    for (const Eigen::Vector3d off :
+    for (const Eigen::Vector3d& off :
          {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(0, 20, 0), Eigen::Vector3d(-20, 0, 8)}) {
       const Eigen::Vector3d p = r.poses[i].position + off;
       const Eigen::Vector3d back = enuToMap(r, mapToEnu(r, p));

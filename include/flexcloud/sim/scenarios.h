@@ -12,8 +12,9 @@ namespace flexcloud::sim {
 /// loop_rtk, open_rtk: clean RTK GNSS on a loop-closed loop and an open route; loop_urban,
 /// open_urban: the urban GNSS of urbanGnss(); open_urban_end: its episodes without jitter and a
 /// drive that ends in 35 s of false RTK fixes; loop_urban_nocov: urban GNSS without any
-/// covariance; loop_offset_lever: a 0.5 s clock offset, a lever arm and a 20 s stop. Throws
-/// Error for another name.
+/// covariance; loop_offset_lever: a 0.5 s clock offset, a lever arm and a 20 s stop;
+/// open_rtk_drifting: an open route with RTK GNSS whose SLAM rotation wanders ten times as much
+/// as the default's (not among the targets: doc/ACCURACY.md). Throws Error for another name.
 SimParams scenario(const std::string& name, std::uint64_t seed, std::size_t map_points);
 
 /// The names scenario() knows.
