@@ -49,6 +49,12 @@ struct FusionResult {
   /// Clock offset estimated on top of params.gnss_time_offset, s (SLAM time = GNSS time -
   /// offset).
   double time_offset = 0.0;
+  /// Whether the offset was estimated: asked for (max_time_offset > 0) and shown by the speed
+  /// profiles of the SLAM and the GNSS (otherwise it stays 0), what they showed and its 1-sigma
+  /// (s; infinite where the speed varied too little).
+  bool time_offset_estimated = false;
+  double time_offset_from_speed = 0.0;
+  double time_offset_sigma = 0.0;
   Eigen::Vector3d lever_arm = Eigen::Vector3d::Zero();  ///< applied, body frame, m
   /// The 1-sigma std-devs given to fixes without one: estimated from the residuals (NaN when
   /// every fix had its own).

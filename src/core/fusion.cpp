@@ -8,6 +8,7 @@
 #include <limits>
 #include <memory>
 
+#include "flexcloud/clock_offset.h"
 #include "flexcloud/trajectory.h"
 
 namespace flexcloud {
@@ -21,6 +22,7 @@ constexpr double kUnknownStdStart = 1.0;  // m, first guess for fixes without a 
 // the SLAM's noise is taken as set too low; rounds of raising it.
 constexpr double kStiffSlam = 2.0;
 constexpr int kNoiseRounds = 2;
+constexpr double kMinOffsetSigma = 0.005;  // s, tightest the speed profiles hold the offset
 
 using Vec3 = Eigen::Vector3d;
 
@@ -161,6 +163,16 @@ struct ZeroPrior {
   }
 };
 
+/// The clock offset stays near what the speed profiles showed.
+struct OffsetPrior {
+  double mean, sigma;
+  template <typename T>
+  bool operator()(const T* dt, T* r) const {
+    r[0] = (dt[0] - T(mean)) / T(sigma);
+    return true;
+  }
+};
+
 /// A fix: the antenna of the pose at the fix's stamp, reached from keyframe a by the SLAM's
 /// motion (scaled by a's scale error), the lever arm, and the clock offset dt times the velocity.
 struct GnssFactor {
@@ -214,6 +226,7 @@ class Fusion {
     out_.lever_arm = Vec3(params_.lever_arm_x, params_.lever_arm_y, params_.lever_arm_z);
     makeKeyframes(T_enu_map);
     selectFixes();
+    estimateClock();
     if (fixes_.size() < 3) {
       throw Error("fusion: " + std::to_string(fixes_.size()) +
                   " fixes can take part (std-dev within the threshold, inside the poses' time "
@@ -313,17 +326,18 @@ class Fusion {
     problem->AddResidualBlock(
         new ceres::AutoDiffCostFunction<ZeroPrior, 1, 1>(new ZeroPrior{1, 0.05}), nullptr, &k0.s);
     problem->AddParameterBlock(&dt_, 1);
-    if (params_.max_time_offset > 0.0) {
-      // A clock offset moves every fix along the track: at constant speed that is a slide of
-      // the trajectory along itself, which the fixes cannot tell apart; only speed changes
-      // show it. The weak prior keeps it at zero where nothing says otherwise.
-      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<ZeroPrior, 1, 1>(
-                                    new ZeroPrior{1, params_.max_time_offset}),
+    if (clock_.observable) {
+      // A clock offset moves every fix along the track, and in a fit of positions a SLAM whose
+      // heading wanders more than its noise says can pass for one (0.08 s, 1 m along the
+      // track, on a drive without any). The speed profiles, which no rotation changes, set
+      // it; the fixes refine it within the profiles' uncertainty.
+      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<OffsetPrior, 1, 1>(new OffsetPrior{
+                                    clock_.offset, std::max(kMinOffsetSigma, clock_.sigma)}),
                                 nullptr, &dt_);
       problem->SetParameterLowerBound(&dt_, 0, -params_.max_time_offset);
       problem->SetParameterUpperBound(&dt_, 0, params_.max_time_offset);
     } else {
-      problem->SetParameterBlockConstant(&dt_);
+      problem->SetParameterBlockConstant(&dt_);  // none asked for, or the speed too even
     }
     for (std::size_t j = 0; j < fixes_.size(); j += stride) {
       Fix& f = fixes_[j];
@@ -372,7 +386,7 @@ class Fusion {
       out_.slam_noise_scale = std::min(most, out_.slam_noise_scale * stiff);
       noise_ = noiseOf(params_, out_.slam_noise_scale);
       makeKeyframes(T_enu_map);
-      dt_ = 0.0;
+      dt_ = startOffset();
       unknown_h_ = unknown_v_ = kUnknownStdStart;
       for (auto& f : fixes_) f.own = sigmaOf(gnss_[f.input].std_dev, unknown_h_, unknown_v_);
       solveStages();
@@ -393,6 +407,17 @@ class Fusion {
     if (n.size() < 20) return 1.0;
     return medianAbs(n) / 0.6745;  // median |N(0, 1)|
   }
+
+  /// The clock offset the speed profiles show, from the fixes that take part (a receiver's own
+  /// large std-dev, as in an outage, would only add noise).
+  void estimateClock() {
+    std::vector<GnssPoint> taking_part;
+    for (const auto& f : fixes_) taking_part.push_back(gnss_[f.input]);
+    clock_ = estimateClockOffset(poses_, taking_part, params_.max_time_offset);
+    dt_ = startOffset();
+  }
+
+  double startOffset() const { return clock_.observable ? clock_.offset : 0.0; }
 
   /// Squared normalised residual of a fix at the current estimate.
   double squaredResidual(const Fix& f) const {
@@ -519,6 +544,9 @@ class Fusion {
       out_.estimated_std_h = out_.estimated_std_v = std::numeric_limits<double>::quiet_NaN();
     }
     out_.time_offset = dt_;
+    out_.time_offset_estimated = clock_.observable;
+    out_.time_offset_from_speed = clock_.offset;
+    out_.time_offset_sigma = clock_.sigma;
     fusedPoses();
   }
 
@@ -547,6 +575,7 @@ class Fusion {
   std::vector<Keyframe> keyframes_;
   std::vector<Fix> fixes_;
   double dt_ = 0.0;
+  ClockOffsetEstimate clock_;
   double unknown_h_ = kUnknownStdStart, unknown_v_ = kUnknownStdStart;
   double roughness_ = 0.0;
   std::unique_ptr<GemanMcClure> loss_;

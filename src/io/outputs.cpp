@@ -63,6 +63,8 @@ json fusionJson(const FusionResult& f) {
             {"excluded_range", f.excluded},
             {"outside_poses", f.outside}}},
           {"time_offset_s", f.time_offset},
+          {"time_offset_estimated", f.time_offset_estimated},
+          {"time_offset_sigma_s", finiteOrNull(f.time_offset_sigma)},
           {"lever_arm_m", {f.lever_arm.x(), f.lever_arm.y(), f.lever_arm.z()}},
           {"estimated_std_h_m", finiteOrNull(f.estimated_std_h)},
           {"estimated_std_v_m", finiteOrNull(f.estimated_std_v)},

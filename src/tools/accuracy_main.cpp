@@ -5,6 +5,7 @@
 //   flexcloud_accuracy [--seeds 1,2,3] [--map-points N] [--scenarios loop_rtk,open_urban,...]
 //                      [--set KEY=VALUE ...]
 
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <sstream>
@@ -96,13 +97,19 @@ void row(const std::string& name, std::uint64_t seed, const std::string& method,
   std::printf("| %s | %lu | %s | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f | %s |\n", name.c_str(),
               static_cast<unsigned long>(seed), method.c_str(), m.all.rmse, m.near.rmse, m.mid.rmse,
               m.far.rmse, m.all.max, traj.rmse,
-              r.fusion ? ("rejected " + std::to_string(r.fusion->outliers) + ", dt " +
-                          std::to_string(r.fusion->time_offset).substr(0, 6) + " s, SLAM noise x" +
-                          std::to_string(r.fusion->slam_noise_scale).substr(0, 4) + ", " +
-                          std::to_string(r.beside.size()) + " beside, " +
-                          std::to_string(r.fusion->seconds).substr(0, 5) + " s")
-                             .c_str()
-                       : "");
+              r.fusion
+                  ? ("rejected " + std::to_string(r.fusion->outliers) + ", dt " +
+                     std::to_string(r.fusion->time_offset).substr(0, 6) + " s" +
+                     (r.fusion->time_offset_estimated ? "" : " (fixed)") + ", SLAM noise x" +
+                     std::to_string(r.fusion->slam_noise_scale).substr(0, 4) + ", " +
+                     std::to_string(r.beside.size()) + " beside, " +
+                     (std::isfinite(r.fusion->estimated_std_h)
+                          ? "std-dev " + std::to_string(r.fusion->estimated_std_h).substr(0, 5) +
+                                " m estimated, "
+                          : std::string()) +
+                     std::to_string(r.fusion->seconds).substr(0, 5) + " s")
+                        .c_str()
+                  : "");
   std::fflush(stdout);
 }
 

@@ -26,6 +26,7 @@
 #include "flexcloud/io/pcd_io.h"
 #include "flexcloud/io/text_io.h"
 #include "flexcloud/sim/sim_cloud.h"
+#include "flexcloud/sim/truth_metrics.h"
 
 namespace {
 
@@ -401,15 +402,17 @@ void oneHourDrive(const Options& o) {
   Params p;
   p.control_points = 2000;
   p.threads = o.threads;
+  p.datum_lat = d.datum.lat, p.datum_lon = d.datum.lon, p.datum_alt = d.datum.alt;
   GeoreferenceResult r;
   const double s = best(o.repeat, [&] { r = georeference(in, p); });
   const auto& t = r.seconds;
   std::printf(
       "| - | pipeline without map, one-hour drive (%zu poses, %zu fixes) | 2000 (%zu "
       "tetrahedra) | %.3f s | | interpolation %.3f, alignment %.3f, control points %.3f, "
-      "fusion %.3f, trajectory %.3f s |\n",
+      "fusion %.3f, trajectory %.3f s; trajectory RMSE vs the truth %.3f m |\n",
       r.poses.size(), r.gnss.points.size(), r.sheet->numTetrahedra(), s, t.interpolation,
-      t.alignment, t.control_points, t.fusion, t.trajectory_warp);
+      t.alignment, t.control_points, t.fusion, t.trajectory_warp,
+      sim::trajectoryTruthError(r.rubbersheet, d.truth).rmse);
 }
 
 }  // namespace
