@@ -178,7 +178,15 @@ class RangeWarper {
       order_[i - b] = (static_cast<std::uint64_t>(key) << 32) | (i - b);
     }
     radixSortByKey(order_, tmp_);
-    for (const std::uint64_t o : order_) warpPoint(b + (o & 0xFFFFFFFFu));
+    // The points are read out of file order: fetch a few ahead, or every read waits for memory.
+    constexpr std::size_t kAhead = 32;
+    const std::size_t n = order_.size();
+    for (std::size_t k = 0; k < n; ++k) {
+      if (k + kAhead < n) {
+        __builtin_prefetch(data_ + (b + (order_[k + kAhead] & 0xFFFFFFFFu)) * step_, 1);
+      }
+      warpPoint(b + (order_[k] & 0xFFFFFFFFu));
+    }
   }
 
   void warpPoint(std::size_t i) {
