@@ -155,20 +155,34 @@ class RangeWarper {
     for (std::size_t b = begin; b < end; b += kBlock, ++block) {
       if (cancel.cancelled()) return;
       const std::size_t e = std::min(end, b + kBlock);
-      // Every 32nd block is warped in file order again, to see whether the order came back.
-      const bool probe = block % 32 == 0;
-      hits_ = 0;
-      if (sorted_ && !probe) {
-        warpSorted(b, e);
+      // The first block and every 32nd begin with a few points in file order, to see whether
+      // the order holds (or came back); the rest of the block goes the way they say. A map
+      // streamed in chunks starts a range per chunk: the probe stays short.
+      std::size_t from = b;
+      if (block % 32 == 0) {
+        from = std::min(e, b + kProbe);
+        warpInFileOrder(b, from);
+      }
+      if (sorted_) {
+        warpSorted(from, e);
       } else {
-        for (std::size_t i = b; i < e; ++i) warpPoint(i);
-        sorted_ = hits_ * 2 < e - b;
+        warpInFileOrder(from, e);
       }
     }
   }
 
  private:
   static constexpr std::size_t kBlock = 1 << 18;
+  static constexpr std::size_t kProbe = 1 << 12;
+
+  /// Points [b, e) in file order; whether most missed their predecessor's tetrahedron decides
+  /// the order of the next ones.
+  void warpInFileOrder(std::size_t b, std::size_t e) {
+    if (b >= e) return;
+    hits_ = 0;
+    for (std::size_t i = b; i < e; ++i) warpPoint(i);
+    sorted_ = hits_ * 2 < e - b;
+  }
 
   void warpSorted(std::size_t b, std::size_t e) {
     order_.resize(e - b);

@@ -338,13 +338,15 @@ ExportSummary writeOutputs(const std::string& dir, const GeoreferenceResult& r,
   checkExports(r, params);
   Staging stage(dir);
   ExportSummary e;
-  if (write_map) write_map(stage.path(kMapFile));
   writeRunFiles(stage, r, run, e);
+  // The picture needs only the run's files: drawn while the map is warped and written.
+  PlotJob plot(run.plot_script, stage.folder());
+  if (write_map) write_map(stage.path(kMapFile));
   const auto t0 = std::chrono::steady_clock::now();
   writeMapExports(stage, r, params, run, e);
   e.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   run.cancel->check(dir + ": before the outputs were moved into place");
-  const std::string skipped = plotReport(run.plot_script, stage.folder());
+  const std::string skipped = plot.finish();
   e.plot = skipped.empty();
   if (e.plot) {
     stage.path("report.png");
