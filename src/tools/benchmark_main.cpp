@@ -332,24 +332,29 @@ double copyFile(const std::string& from, const std::string& to) {
 }
 
 /// The tool's own peak memory from its report.
-double reportedPeak(const std::string& report_path) {
-  std::ifstream report(report_path);
-  const std::string text((std::istreambuf_iterator<char>(report)), {});
-  const auto at = text.find("\"peak_memory_mb\":");
-  return at == std::string::npos ? 0.0 : std::stod(text.substr(at + 17));
-}
+/// What a run of the tool says of itself in its report.json.
+struct ToolReport {
+  double peak_mb = 0.0;
+  std::string stages;  ///< the map stages' seconds as a note ("" where not reported)
+};
 
-/// The map stages' seconds of the tool's report, as a note: where the time of a run went.
-std::string reportedMapStages(const std::string& report_path) {
+ToolReport readToolReport(const std::string& report_path) {
   std::ifstream report(report_path);
   const nlohmann::json j = nlohmann::json::parse(report, nullptr, false);
-  if (j.is_discarded() || !j.contains("seconds")) return "";
-  const auto& s = j["seconds"];
-  char buf[160];
-  std::snprintf(buf, sizeof(buf), "; map read %.1f, location grid %.1f, warp %.1f, write %.1f s",
-                s.value("map_read", 0.0), s.value("map_location_grid", 0.0),
-                s.value("map_warp", 0.0), s.value("map_write", 0.0));
-  return buf;
+  ToolReport out;
+  if (j.is_discarded()) return out;
+  if (j.contains("peak_memory_mb") && j["peak_memory_mb"].is_number()) {
+    out.peak_mb = j["peak_memory_mb"].get<double>();
+  }
+  if (j.contains("seconds")) {
+    const auto& s = j["seconds"];
+    char buf[160];
+    std::snprintf(buf, sizeof(buf), "; map read %.1f, location grid %.1f, warp %.1f, write %.1f s",
+                  s.value("map_read", 0.0), s.value("map_location_grid", 0.0),
+                  s.value("map_warp", 0.0), s.value("map_write", 0.0));
+    out.stages = buf;
+  }
+  return out;
 }
 
 /// A city-size map (a 20 km drive) in random order: the whole tool against a copy of the file.
@@ -394,13 +399,12 @@ void cityMap(const Options& o) {
     if (autoware) args.push_back("--autoware");
     const ProcessRun run = runProcess(args);
     if (run.code != 0) throw Error("the georeference tool failed on the city map");
-    const double peak = reportedPeak(dir + "/out/report.json");
+    const ToolReport report = readToolReport(dir + "/out/report.json");
     std::printf(
         "| %zu | whole offline tool, random order%s | 200 | %.3f s | %.1f M/s | **%.2f x** "
         "the copy; peak %.0f MB%s |\n",
         o.city, autoware ? ", with the 20 m Autoware tiles" : "", run.seconds,
-        o.city / run.seconds / 1e6, run.seconds / copy, peak,
-        reportedMapStages(dir + "/out/report.json").c_str());
+        o.city / run.seconds / 1e6, run.seconds / copy, report.peak_mb, report.stages.c_str());
     std::fflush(stdout);
   }
   fs::remove_all(dir);
