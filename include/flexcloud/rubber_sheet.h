@@ -50,6 +50,8 @@ class RubberSheet {
   /// Whether input point p lies in tetrahedron `tet` (within rounding): the check of a
   /// neighbour's tetrahedron before a full location.
   bool contains(int tet, const Eigen::Vector3d& p) const;
+  /// What the location reads of each tetrahedron (defined inside the core).
+  const std::vector<LocatorTet>& locatorTets() const { return geometry_; }
   /// Fast location through the grid; thread-safe.
   Location locate(const Eigen::Vector3d& p) const;
   /// Location by a walk from `hint` (a tetrahedron index, e.g. the previous point's):
@@ -80,6 +82,8 @@ class RubberSheet {
   std::size_t merged() const { return merged_; }
   /// Tetrahedra too flat to carry their own transform; they use a neighbour's.
   std::size_t degenerate() const { return degenerate_; }
+  /// The box of the sources in the input frame: the hull lies within it.
+  const Eigen::AlignedBox3d& inputBox() const { return input_box_; }
   /// Level-1 grid cells per axis of the location accelerator (after prepare()).
   Eigen::Vector3i gridSize() const;
 
@@ -95,6 +99,7 @@ class RubberSheet {
   std::size_t merged_ = 0;
   std::size_t degenerate_ = 0;
   Eigen::Isometry3d input_to_source_ = Eigen::Isometry3d::Identity();
+  Eigen::AlignedBox3d input_box_;
   // Per tetrahedron, in the input frame: what the walk reads, and the transform applied.
   std::vector<LocatorTet> geometry_;
   std::vector<Affine34, Eigen::aligned_allocator<Affine34>> affine_;

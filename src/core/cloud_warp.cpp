@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "parallel.h"
+#include "tet_locator.h"
 
 namespace flexcloud {
 
@@ -105,9 +106,9 @@ struct AnyXyz {
   void set(std::uint8_t* pt, const Eigen::Vector3d& p) const { l.set(pt, p); }
 };
 
-/// Spreads the low 16 bits of v to the even bits (for a Morton code).
-inline std::uint32_t spread16(std::uint32_t v) {
-  v &= 0xFFFF;
+/// Spreads the low 11 bits of v to the even bits (for a Morton code).
+inline std::uint32_t spread11(std::uint32_t v) {
+  v &= 0x7FF;
   v = (v | (v << 8)) & 0x00FF00FF;
   v = (v | (v << 4)) & 0x0F0F0F0F;
   v = (v | (v << 2)) & 0x33333333;
@@ -115,40 +116,67 @@ inline std::uint32_t spread16(std::uint32_t v) {
   return v;
 }
 
-/// Morton code of the 2 m x-y cell of a point (wrapping every 131 km, which keeps neighbours
-/// together all the same): points with close codes are close in space.
-inline std::uint32_t cellKey(const Eigen::Vector3d& p) {
-  constexpr double kInvCell = 0.5;
-  const auto cx =
-      static_cast<std::uint32_t>(static_cast<std::int64_t>(std::floor(p.x() * kInvCell)));
-  const auto cy =
-      static_cast<std::uint32_t>(static_cast<std::int64_t>(std::floor(p.y() * kInvCell)));
-  return spread16(cx) | (spread16(cy) << 1);
-}
+/// The Morton code of a point's x-y cell on a 2048 x 2048 grid over the sheet's box (cells of
+/// 1 m on a 2 km map, 10 m on a 20 km city, far smaller than a tetrahedron's reach): points with
+/// close codes are close in space. 22 bits, so that two counting passes sort them.
+class CellKeys {
+ public:
+  static constexpr int kBits = 11;
 
-/// Sorts (key << 32 | index) entries by key: four byte-wise counting passes.
+  explicit CellKeys(const Eigen::AlignedBox3d& box)
+      : origin_(box.min().head<2>()),
+        inv_cell_(static_cast<double>(1 << kBits) /
+                  std::max(1e-3, (box.max() - box.min()).head<2>().maxCoeff())) {}
+
+  std::uint32_t operator()(const Eigen::Vector3d& p) const {
+    return spread11(quantize(p.x(), origin_.x())) | (spread11(quantize(p.y(), origin_.y())) << 1);
+  }
+
+ private:
+  std::uint32_t quantize(double v, double origin) const {
+    const double c = std::clamp((v - origin) * inv_cell_, 0.0, (1 << kBits) - 1.0);
+    return static_cast<std::uint32_t>(c);
+  }
+
+  Eigen::Vector2d origin_;
+  double inv_cell_;
+};
+
+/// Sorts (key << 32 | index) entries by their 22-bit key: two 11-bit counting passes.
 void radixSortByKey(std::vector<std::uint64_t>& v, std::vector<std::uint64_t>& tmp) {
+  constexpr int kDigit = CellKeys::kBits;
+  constexpr std::size_t kBuckets = std::size_t{1} << kDigit;
   tmp.resize(v.size());
-  for (int shift = 32; shift < 64; shift += 8) {
-    std::size_t count[257] = {0};
-    for (const std::uint64_t e : v) ++count[((e >> shift) & 0xFF) + 1];
-    for (int b = 0; b < 256; ++b) count[b + 1] += count[b];
-    for (const std::uint64_t e : v) tmp[count[(e >> shift) & 0xFF]++] = e;
+  std::vector<std::size_t> count(kBuckets + 1);
+  for (int shift = 32; shift < 32 + 2 * kDigit; shift += kDigit) {
+    std::fill(count.begin(), count.end(), 0);
+    for (const std::uint64_t e : v) ++count[((e >> shift) & (kBuckets - 1)) + 1];
+    for (std::size_t b = 0; b < kBuckets; ++b) count[b + 1] += count[b];
+    for (const std::uint64_t e : v) tmp[count[(e >> shift) & (kBuckets - 1)]++] = e;
     v.swap(tmp);
   }
 }
 
 /// Warps points one range at a time, in block-sized steps. Scan-ordered maps are warped in file
-/// order, each point trying its predecessor's tetrahedron first. When that guess fails for most
-/// points of a block (a map voxel-filtered, merged or shuffled), the following blocks are warped
-/// in the order of their points' 2 m cells (a Morton code, radix-sorted), so that neighbours in
-/// space follow each other again; every point is still written in its own place.
+/// order, each point trying its predecessor's tetrahedron first, then a walk from there when the
+/// points lie close together, else the location grid. When the first guess fails for most points
+/// of a block (a map voxel-filtered, merged or shuffled), the following blocks are warped in the
+/// order of their points' cells (a Morton code, radix-sorted), so that neighbours in space follow
+/// each other again; every point is still written in its own place.
 template <typename Xyz>
 class RangeWarper {
  public:
-  RangeWarper(std::uint8_t* data, std::size_t step, const Xyz& xyz, const RubberSheet& sheet,
-              WarpStats& s)
-      : data_(data), step_(step), xyz_(xyz), sheet_(sheet), s_(s) {}
+  RangeWarper(std::uint8_t* data, std::size_t step, const Xyz& xyz, const RubberSheet& sheet)
+      : data_(data),
+        step_(step),
+        xyz_(xyz),
+        sheet_(sheet),
+        tets_(sheet.locatorTets()),
+        keys_(sheet.inputBox()) {}
+
+  /// What was counted. Kept here, not in the caller's statistics, which sit beside another
+  /// thread's: counting there point by point made two cores fight over one cache line.
+  const WarpStats& stats() const { return s_; }
 
   void run(std::size_t begin, std::size_t end, const CancelToken& cancel) {
     std::size_t block = 0;
@@ -188,7 +216,7 @@ class RangeWarper {
     order_.resize(e - b);
     for (std::size_t i = b; i < e; ++i) {
       const Eigen::Vector3d p = xyz_.get(data_ + i * step_);
-      const std::uint32_t key = p.allFinite() ? cellKey(p) : 0;
+      const std::uint32_t key = p.allFinite() ? keys_(p) : 0;
       order_[i - b] = (static_cast<std::uint64_t>(key) << 32) | (i - b);
     }
     radixSortByKey(order_, tmp_);
@@ -212,25 +240,34 @@ class RangeWarper {
       return;
     }
     RubberSheet::Location loc{last_, false};
-    if (last_ >= 0 && sheet_.contains(last_, p)) {
+    if (last_ >= 0 && (insideBeyondDoubt(tets_[static_cast<std::size_t>(last_)], p) ||
+                       sheet_.contains(last_, p))) {
       ++hits_;
     } else {
-      loc = sheet_.locate(p);
+      // A walk of a step or two beats the grid's lookups for a point next to the last one.
+      const bool near = last_ >= 0 && (p - last_point_).squaredNorm() < kNear * kNear;
+      loc = near ? sheet_.locateFrom(p, last_) : sheet_.locate(p);
       if (loc.outside) {
         ++s_.outside;
       } else {
         last_ = loc.tet;
+        last_point_ = p;
       }
     }
     xyz_.set(pt, RubberSheet::apply(sheet_.affineAt(loc), p));
   }
 
+  static constexpr double kNear = 5.0;  // m
+
   std::uint8_t* data_;
   std::size_t step_;
   const Xyz& xyz_;
   const RubberSheet& sheet_;
-  WarpStats& s_;
+  const std::vector<LocatorTet>& tets_;
+  CellKeys keys_;
+  WarpStats s_;
   int last_ = -1;
+  Eigen::Vector3d last_point_ = Eigen::Vector3d::Zero();  // the last point located anew
   std::size_t hits_ = 0;
   bool sorted_ = false;
   std::vector<std::uint64_t> order_, tmp_;
@@ -239,7 +276,9 @@ class RangeWarper {
 template <typename Xyz>
 void warpRange(std::uint8_t* data, std::size_t begin, std::size_t end, std::size_t step,
                const Xyz& xyz, const RubberSheet& sheet, WarpStats& s, const CancelToken& cancel) {
-  RangeWarper<Xyz>(data, step, xyz, sheet, s).run(begin, end, cancel);
+  RangeWarper<Xyz> warper(data, step, xyz, sheet);
+  warper.run(begin, end, cancel);
+  s = warper.stats();
 }
 
 }  // namespace

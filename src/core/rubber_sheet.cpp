@@ -98,6 +98,7 @@ RubberSheet::RubberSheet(const std::vector<Eigen::Vector3d>& source,
     lo = lo.cwiseMin(source_to_input * src);
     hi = hi.cwiseMax(source_to_input * src);
   }
+  input_box_ = Eigen::AlignedBox3d(lo, hi);
   locator_ = std::make_unique<TetLocator>(geometry_, source_, input_to_source, lo, hi);
 }
 

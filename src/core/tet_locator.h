@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <array>
 #include <vector>
 
@@ -25,6 +26,14 @@ struct LocatorTet {
   /// predicates on the source coordinates decide, as CGAL's own location does.
   double tolerance = 0.0;
 };
+
+/// Whether p lies inside the tetrahedron beyond the rounding error: the cheap first test of a
+/// guess, without the face to leave by. false also for a point on or near a face, which
+/// TetLocator::inside() then settles.
+inline bool insideBeyondDoubt(const LocatorTet& t, const Eigen::Vector3d& p) {
+  const Eigen::Vector3d l = t.bary * (p - t.v0);
+  return std::min(std::min(l.x(), l.y()), std::min(l.z(), 1.0 - l.sum())) >= t.tolerance;
+}
 
 class TetLocator {
  public:
