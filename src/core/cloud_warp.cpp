@@ -240,16 +240,17 @@ class RangeWarper {
       return;
     }
     RubberSheet::Location loc{last_, false};
-    if (last_ >= 0 && (insideBeyondDoubt(tets_[static_cast<std::size_t>(last_)], p) ||
-                       sheet_.contains(last_, p))) {
+    if (last_ >= 0 && insideBeyondDoubt(tets_[static_cast<std::size_t>(last_)], p)) {
       ++hits_;
     } else {
-      // A walk of a step or two beats the grid's lookups for a point next to the last one.
+      // A walk of a step or two beats the grid's lookups for a point next to the last one; its
+      // first step settles a point on a face of the last tetrahedron.
       const bool near = last_ >= 0 && (p - last_point_).squaredNorm() < kNear * kNear;
       loc = near ? sheet_.locateFrom(p, last_) : sheet_.locate(p);
       if (loc.outside) {
         ++s_.outside;
       } else {
+        hits_ += loc.tet == last_ ? 1 : 0;
         last_ = loc.tet;
         last_point_ = p;
       }
