@@ -47,9 +47,6 @@ class RubberSheet {
   /// cells go where they are. Thread-safe.
   void prepare(int threads = 0, const std::vector<Eigen::Vector3d>* sample = nullptr) const;
   bool prepared() const { return prepared_.load(std::memory_order_acquire); }
-  /// Whether input point p lies in tetrahedron `tet` (within rounding): the check of a
-  /// neighbour's tetrahedron before a full location.
-  bool contains(int tet, const Eigen::Vector3d& p) const;
   /// What the location reads of each tetrahedron (defined inside the core).
   const std::vector<LocatorTet>& locatorTets() const { return geometry_; }
   /// Fast location through the grid; thread-safe.

@@ -187,10 +187,6 @@ void RubberSheet::prepare(int threads, const std::vector<Eigen::Vector3d>* sampl
   });
 }
 
-bool RubberSheet::contains(int tet, const Eigen::Vector3d& p) const {
-  return locator_->inside(tet, p);
-}
-
 Eigen::Vector3i RubberSheet::gridSize() const { return locator_->gridSize(); }
 
 RubberSheet::Location RubberSheet::locate(const Eigen::Vector3d& p) const {

@@ -28,8 +28,8 @@ struct LocatorTet {
 };
 
 /// Whether p lies inside the tetrahedron beyond the rounding error: the cheap first test of a
-/// guess, without the face to leave by. false also for a point on or near a face, which
-/// TetLocator::inside() then settles.
+/// guess, without the face to leave by. false also for a point on or near a face, which the
+/// walk's exact test then settles.
 inline bool insideBeyondDoubt(const LocatorTet& t, const Eigen::Vector3d& p) {
   const Eigen::Vector3d l = t.bary * (p - t.v0);
   return std::min(std::min(l.x(), l.y()), std::min(l.z(), 1.0 - l.sum())) >= t.tolerance;
