@@ -23,9 +23,12 @@ struct PointPair {
 /// The points beside and above each control point. An offset point is left out where another
 /// part of the route lies nearer to it than 0.7 times its offset (another pass, the inside of a
 /// tight curve): there the correction of that other part applies, and two targets for one
-/// place would fold the sheet.
+/// place would fold the sheet. Control points at poses where `steady` is false (the SLAM
+/// wrong from pose to pose there: its orientation at one pose says little of the map beside
+/// it) get none; an empty `steady` holds everywhere.
 std::vector<PointPair> besidePoints(const ControlPointSelection& cps, const Trajectory& slam,
-                                    const Trajectory& fused, double beside, double above);
+                                    const Trajectory& fused, double beside, double above,
+                                    const std::vector<bool>& steady = {});
 
 /// Indices (into `pairs`) of the points that are vertices of tetrahedra the sheet turns inside
 /// out or squeezes flat (determinant of the linear part below 0.2). The sheet's sources are

@@ -12,6 +12,7 @@
 // offset is a parameter of the problem; std-devs the receiver does not give are estimated from
 // the residuals.
 
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -38,7 +39,14 @@ struct FixOutcome {
   double stamp = 0.0;  ///< GNSS clock, time offset of the parameters applied
   Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< ENU
   double residual = 0.0;  ///< m, from the fused antenna position (NaN where not fused)
-  double weight = 0.0;    ///< final weight of the robust loss, 0..1
+  /// The fix less the fused antenna position, ENU, m (NaN where not fused).
+  Eigen::Vector3d error = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  /// Its own 1-sigma std-dev (reported, or estimated where not given; floored), ENU, m.
+  Eigen::Vector3d std_dev = Eigen::Vector3d::Zero();
+  /// The SLAM's pose-to-pose error at its stamp (1-sigma, x = y horizontal, z vertical), m:
+  /// added to std_dev in the fusion's weight of the fix.
+  Eigen::Vector3d slam_jitter = Eigen::Vector3d::Zero();
+  double weight = 0.0;  ///< final weight of the robust loss, 0..1
   FixVerdict verdict = FixVerdict::kUsed;
 };
 
@@ -46,8 +54,8 @@ struct FusionResult {
   /// The fused pose (ENU, body frame) at every pose of the input, in the same order.
   Trajectory poses;
   std::vector<FixOutcome> fixes;
-  /// Clock offset estimated on top of params.gnss_time_offset, s (SLAM time = GNSS time -
-  /// offset).
+  /// Clock offset estimated on top of params.gnss_time_offset, s (SLAM time = GNSS time +
+  /// offset: a fix stamped t was taken at SLAM time t + offset).
   double time_offset = 0.0;
   /// Whether the offset was estimated: asked for (max_time_offset > 0) and shown by the speed
   /// profiles of the SLAM and the GNSS (otherwise it stays 0), what they showed and its 1-sigma
@@ -68,6 +76,14 @@ struct FusionResult {
   double slam_noise_scale = 1.0;
   /// Upper bound of the GNSS's horizontal white noise from its own roughness, m.
   double gnss_roughness_h = 0.0;
+  /// The SLAM's pose-to-pose error at the inliers (median, 1-sigma, m), and what the poses
+  /// took of the fixes' detail because of it (gnss_detail.h): per pose the larger of the
+  /// horizontal and vertical gain (0: the fused pose kept), how many moved and the largest move.
+  double slam_jitter_h = 0.0;
+  double slam_jitter_v = 0.0;
+  std::vector<double> detail_gain;
+  std::size_t detail_poses = 0;
+  double detail_max_shift = 0.0;
   std::size_t keyframes = 0;
   std::size_t used = 0;
   std::size_t outliers = 0;
@@ -79,8 +95,9 @@ struct FusionResult {
 };
 
 /// Fuses `poses` (SLAM, map frame, sorted by stamp) with `gnss` (ENU, sorted by stamp, std-dev
-/// NaN where not given), starting from the rigid alignment T_enu_map. Throws Error when fewer
-/// than 3 fixes can take part, or when cancelled.
+/// NaN where not given), starting from the rigid alignment T_enu_map, and takes the fixes'
+/// detail where the SLAM is rough (takeGnssDetail). Throws Error when fewer than 3 fixes can
+/// take part, or when cancelled.
 FusionResult fuseTrajectory(const Trajectory& poses, const std::vector<GnssPoint>& gnss,
                             const Eigen::Isometry3d& T_enu_map, const Params& params,
                             const CancelToken& cancel = neverCancelled());

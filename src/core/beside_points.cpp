@@ -51,7 +51,8 @@ Eigen::Isometry3d isometry(const Pose& p) {
 }  // namespace
 
 std::vector<PointPair> besidePoints(const ControlPointSelection& cps, const Trajectory& slam,
-                                    const Trajectory& fused, double beside, double above) {
+                                    const Trajectory& fused, double beside, double above,
+                                    const std::vector<bool>& steady) {
   std::vector<PointPair> out;
   if (beside <= 0.0 && above <= 0.0) return out;
   // Cross-sections at every control point at least `spacing` of path from the previous one:
@@ -68,6 +69,7 @@ std::vector<PointPair> besidePoints(const ControlPointSelection& cps, const Traj
   int section = 0;
   for (std::size_t c = 0; c < cps.points.size(); ++c) {
     const auto& cp = cps.points[c];
+    if (!steady.empty() && !steady[cp.pose_index]) continue;
     // The first and last control points always get a section: the rotation at the ends of the
     // drive has nothing beyond it to be interpolated from.
     const bool end = c + 1 == cps.points.size();

@@ -9,6 +9,8 @@
 #include <memory>
 
 #include "flexcloud/clock_offset.h"
+#include "flexcloud/gnss_detail.h"
+#include "flexcloud/slam_jitter.h"
 #include "flexcloud/trajectory.h"
 
 namespace flexcloud {
@@ -23,6 +25,7 @@ constexpr double kUnknownStdStart = 1.0;  // m, first guess for fixes without a 
 constexpr double kStiffSlam = 2.0;
 constexpr int kNoiseRounds = 2;
 constexpr double kMinOffsetSigma = 0.005;  // s, tightest the speed profiles hold the offset
+constexpr int kJitterWindow = 10;          // fixes on either side for the SLAM's jitter
 
 using Vec3 = Eigen::Vector3d;
 
@@ -210,8 +213,9 @@ struct Fix {
   std::size_t keyframe = 0;  ///< index into the keyframes
   GnssFactor factor;
   bool known_std = true;
-  Vec3 own = Vec3::Zero();    ///< its std-dev: reported, or estimated where not given
-  Vec3 sigma = Vec3::Zero();  ///< what it is weighted with in the current stage
+  Vec3 own = Vec3::Zero();     ///< its std-dev: reported, or estimated where not given
+  Vec3 jitter = Vec3::Zero();  ///< the SLAM's pose-to-pose error at its stamp (1-sigma)
+  Vec3 sigma = Vec3::Zero();   ///< what it is weighted with in the current stage
 };
 
 class Fusion {
@@ -227,6 +231,7 @@ class Fusion {
     makeKeyframes(T_enu_map);
     selectFixes();
     estimateClock();
+    measureJitter(T_enu_map);
     if (fixes_.size() < 3) {
       throw Error("fusion: " + std::to_string(fixes_.size()) +
                   " fixes can take part (std-dev within the threshold, inside the poses' time "
@@ -302,12 +307,36 @@ class Fusion {
     f.factor.antenna = at.linear() * out_.lever_arm;
     f.factor.velocity = velocity;
     f.factor.fix = gnss_[j].position;
-    f.own = sigmaOf(gnss_[j].std_dev, kUnknownStdStart, kUnknownStdStart);
-    f.sigma = f.own;
+    f.own = f.sigma = ownSigma(gnss_[j].std_dev, kUnknownStdStart, kUnknownStdStart);
     return f;
   }
 
-  Vec3 sigmaOf(const Vec3& reported, double unknown_h, double unknown_v) const {
+  /// The SLAM's jitter at each fix (slam_jitter.h), from the fixes' residuals at the rigid
+  /// start: a fix is compared with the SLAM's pose at its stamp, and what the SLAM gets wrong
+  /// from pose to pose weighs on that comparison as much as the GNSS's own noise.
+  void measureJitter(const Eigen::Isometry3d& T_enu_map) {
+    std::vector<Vec3> fix, slam;
+    for (const auto& f : fixes_) {
+      fix.push_back(gnss_[f.input].position);
+      const double t = gnss_[f.input].stamp + dt_;  // on the SLAM's clock
+      slam.push_back(T_enu_map * slamAt(poses_, t) * out_.lever_arm);
+    }
+    const std::vector<Vec3> j = slamJitter(fix, slam, kJitterWindow, params_.gnss_std_floor);
+    for (std::size_t i = 0; i < fixes_.size(); ++i) {
+      Fix& f = fixes_[i];
+      f.jitter = j[i];
+      f.own = f.sigma = sigmaOf(f, kUnknownStdStart, kUnknownStdStart);
+    }
+  }
+
+  /// The std-dev a fix is weighted with: its own (reported, or the estimate for fixes
+  /// without one) and the SLAM's jitter at its stamp.
+  Vec3 sigmaOf(const Fix& f, double unknown_h, double unknown_v) const {
+    const Vec3 s = ownSigma(gnss_[f.input].std_dev, unknown_h, unknown_v);
+    return (s.cwiseProduct(s) + f.jitter.cwiseProduct(f.jitter)).cwiseSqrt();
+  }
+
+  Vec3 ownSigma(const Vec3& reported, double unknown_h, double unknown_v) const {
     const Vec3 s = reported.allFinite() ? reported : Vec3(unknown_h, unknown_h, unknown_v);
     return s.cwiseMax(params_.gnss_std_floor);
   }
@@ -388,7 +417,7 @@ class Fusion {
       makeKeyframes(T_enu_map);
       dt_ = startOffset();
       unknown_h_ = unknown_v_ = kUnknownStdStart;
-      for (auto& f : fixes_) f.own = sigmaOf(gnss_[f.input].std_dev, unknown_h_, unknown_v_);
+      for (auto& f : fixes_) f.own = sigmaOf(f, unknown_h_, unknown_v_);
       solveStages();
     }
   }
@@ -400,7 +429,7 @@ class Fusion {
     for (const auto& f : fixes_) {
       if (weightOf(f) < 0.5) continue;
       const Vec3 e = residualOf(f);
-      const double own = f.known_std ? f.own.x() : roughness_;
+      const double own = f.known_std ? f.own.x() : std::hypot(roughness_, f.jitter.x());
       n.push_back(e.x() / own);
       n.push_back(e.y() / own);
     }
@@ -470,9 +499,10 @@ class Fusion {
     std::vector<double> h, v;
     for (const auto& f : fixes_) {
       if (f.known_std || weightOf(f) < 0.5) continue;
-      const Vec3 e = residualOf(f);
-      h.push_back(std::hypot(e.x(), e.y()) / std::sqrt(2.0));
-      v.push_back(std::abs(e.z()));
+      // The GNSS's own part of the residual: the SLAM's jitter taken out.
+      const Vec3 e = residualOf(f), j2 = f.jitter.cwiseProduct(f.jitter);
+      h.push_back(std::sqrt(std::max(0.0, 0.5 * (e.x() * e.x() + e.y() * e.y()) - j2.x())));
+      v.push_back(std::sqrt(std::max(0.0, e.z() * e.z() - j2.z())));
     }
     if (h.size() < 10) return false;
     auto robust = [](std::vector<double>& x) { return 1.4826 * medianAbs(x); };  // a 1-sigma
@@ -484,7 +514,7 @@ class Fusion {
     out_.estimated_std_h = sh;
     out_.estimated_std_v = sv;
     for (auto& f : fixes_) {
-      if (!f.known_std) f.own = sigmaOf(Vec3::Constant(std::nan("")), sh, sv);
+      if (!f.known_std) f.own = sigmaOf(f, sh, sv);
     }
     return changed;
   }
@@ -512,7 +542,10 @@ class Fusion {
     std::vector<double> sigmas;
     for (const auto& f : fixes_) {
       FixOutcome& o = out_.fixes[f.input];
-      o.residual = residualOf(f).norm();
+      o.error = -residualOf(f);  // the factor's residual is the fused antenna less the fix
+      o.residual = o.error.norm();
+      o.slam_jitter = f.jitter;
+      o.std_dev = ownSigma(gnss_[f.input].std_dev, unknown_h_, unknown_v_);
       o.weight = weightOf(f);
       o.verdict = o.weight < kRejectWeight ? FixVerdict::kOutlier : FixVerdict::kUsed;
       if (o.verdict == FixVerdict::kUsed) sigmas.push_back(f.sigma.x());
@@ -605,7 +638,9 @@ FusionResult fuseTrajectory(const Trajectory& poses, const std::vector<GnssPoint
                             const Eigen::Isometry3d& T_enu_map, const Params& params,
                             const CancelToken& cancel) {
   if (poses.size() < 2) throw Error("fusion: at least 2 poses are needed");
-  return Fusion(poses, gnss, params, cancel).run(T_enu_map);
+  FusionResult out = Fusion(poses, gnss, params, cancel).run(T_enu_map);
+  takeGnssDetail(out);
+  return out;
 }
 
 }  // namespace flexcloud

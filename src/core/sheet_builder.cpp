@@ -132,9 +132,10 @@ ControlPointSelection chooseControlPoints(const Trajectory& poses,
 
 SheetWithBeside buildSheetWithBeside(const ControlPointSelection& cps, const Trajectory& slam,
                                      const Trajectory& fused, const Eigen::Isometry3d& T_enu_map,
-                                     const Cuboid& cuboid, const Params& params) {
+                                     const Cuboid& cuboid, const Params& params,
+                                     const std::vector<bool>& steady) {
   SheetWithBeside out;
-  out.beside = besidePoints(cps, slam, fused, params.beside_distance, params.above_height);
+  out.beside = besidePoints(cps, slam, fused, params.beside_distance, params.above_height, steady);
   for (int round = 0;; ++round) {
     out.sheet = buildSheet(cps, out.beside, T_enu_map, cuboid);
     const std::vector<std::size_t> bad = foldingPoints(*out.sheet, out.beside, T_enu_map);

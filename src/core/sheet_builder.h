@@ -39,8 +39,9 @@ ControlPointSelection chooseControlPoints(const Trajectory& poses,
                                           const Eigen::Isometry3d& T_enu_map, const Cuboid& cuboid,
                                           const Params& params);
 
-/// The sheet with points beside and above the control points (besidePoints()); points that
-/// fold the sheet are left out, and the sheet built again, up to three times.
+/// The sheet with points beside and above the control points at steady poses
+/// (besidePoints()); points that fold the sheet are left out, and the sheet built again, up to
+/// three times.
 struct SheetWithBeside {
   std::shared_ptr<const RubberSheet> sheet;
   std::vector<PointPair> beside;
@@ -48,6 +49,7 @@ struct SheetWithBeside {
 };
 SheetWithBeside buildSheetWithBeside(const ControlPointSelection& cps, const Trajectory& slam,
                                      const Trajectory& fused, const Eigen::Isometry3d& T_enu_map,
-                                     const Cuboid& cuboid, const Params& params);
+                                     const Cuboid& cuboid, const Params& params,
+                                     const std::vector<bool>& steady);
 
 }  // namespace flexcloud

@@ -71,6 +71,10 @@ json fusionJson(const FusionResult& f) {
           {"median_std_h_m", f.median_std_h},
           {"slam_noise_scale", f.slam_noise_scale},
           {"gnss_roughness_h_m", f.gnss_roughness_h},
+          {"slam_jitter_h_m", f.slam_jitter_h},
+          {"slam_jitter_v_m", f.slam_jitter_v},
+          {"poses_moved_to_fixes", f.detail_poses},
+          {"largest_move_to_fixes_m", f.detail_max_shift},
           {"stages", f.stages},
           {"seconds", f.seconds}};
 }

@@ -31,6 +31,9 @@ flexcloud::Result toResultMsg(const NodeResult* r, bool success, const std::stri
     m.estimated_std_h = g.fusion->estimated_std_h;
     m.estimated_std_v = g.fusion->estimated_std_v;
     m.slam_noise_scale = g.fusion->slam_noise_scale;
+    m.slam_jitter_h = g.fusion->slam_jitter_h;
+    m.slam_jitter_v = g.fusion->slam_jitter_v;
+    m.poses_moved_to_fixes = static_cast<std::uint32_t>(g.fusion->detail_poses);
   }
   m.poses = static_cast<std::uint32_t>(g.poses.size());
   m.poses_matched = static_cast<std::uint32_t>(g.poses_matched);
@@ -70,6 +73,9 @@ flexcloud::Georeference::Response toResponse(const flexcloud::Result& msg) {
   res.estimated_std_h = msg.estimated_std_h;
   res.estimated_std_v = msg.estimated_std_v;
   res.slam_noise_scale = msg.slam_noise_scale;
+  res.slam_jitter_h = msg.slam_jitter_h;
+  res.slam_jitter_v = msg.slam_jitter_v;
+  res.poses_moved_to_fixes = msg.poses_moved_to_fixes;
   res.poses = msg.poses;
   res.poses_matched = msg.poses_matched;
   res.control_points = msg.control_points;

@@ -1,0 +1,154 @@
+// The SLAM's pose-to-pose error, and the fused poses taking the fixes' detail where it shows.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "flexcloud/gnss_detail.h"
+#include "flexcloud/slam_jitter.h"
+
+namespace flexcloud {
+namespace {
+
+using Vec3 = Eigen::Vector3d;
+
+/// A curving, climbing track sampled every 0.2 s at 12 m/s (no noise).
+std::vector<Vec3> track(std::size_t n) {
+  std::vector<Vec3> out;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double t = 0.2 * static_cast<double>(i), a = 0.02 * t;
+    out.emplace_back(600.0 * std::sin(a), 600.0 * (1.0 - std::cos(a)), 3.0 * std::sin(0.05 * t));
+  }
+  return out;
+}
+
+/// The SLAM: the track under a slowly growing drift (a rotation of 0.5 degrees over the drive
+/// and an offset), plus white jitter of `h` / `v` metres.
+std::vector<Vec3> slamOf(const std::vector<Vec3>& truth, double h, double v, std::mt19937& rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  std::vector<Vec3> out;
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    const double yaw = 0.0087 * static_cast<double>(i) / static_cast<double>(truth.size());
+    const Eigen::Matrix3d r = Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix();
+    out.push_back(r * truth[i] + Vec3(2.0, -1.0, 0.5) + Vec3(h * n(rng), h * n(rng), v * n(rng)));
+  }
+  return out;
+}
+
+std::vector<Vec3> noisy(const std::vector<Vec3>& x, double sigma, std::mt19937& rng) {
+  std::normal_distribution<double> n(0.0, sigma);
+  std::vector<Vec3> out = x;
+  for (auto& p : out) p += Vec3(n(rng), n(rng), n(rng));
+  return out;
+}
+
+double medianOf(const std::vector<Vec3>& j, int axis) {
+  std::vector<double> v;
+  for (const auto& x : j) v.push_back(x(axis));
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+TEST(SlamJitter, NoneWhereTheSlamIsSmoothWhateverTheGnssNoise) {
+  std::mt19937 rng(3);
+  const std::vector<Vec3> truth = track(1500);
+  for (const double gnss : {0.01, 0.3}) {
+    const std::vector<Vec3> j =
+        slamJitter(noisy(truth, gnss, rng), slamOf(truth, 0, 0, rng), 10, 0.01);
+    std::size_t moved = 0;
+    for (const auto& x : j) moved += x.norm() > 0.0 ? 1 : 0;
+    EXPECT_EQ(medianOf(j, 0), 0.0) << gnss;
+    EXPECT_EQ(medianOf(j, 2), 0.0) << gnss;
+    EXPECT_LT(moved, j.size() / 10) << gnss;  // the sampling noise of two spreads, rarely 1.5x
+  }
+}
+
+TEST(SlamJitter, MeasuresAVerticalJitterOfTheSlamOnly) {
+  std::mt19937 rng(5);
+  const std::vector<Vec3> truth = track(1500);
+  const std::vector<Vec3> j =
+      slamJitter(noisy(truth, 0.01, rng), slamOf(truth, 0.0, 0.2, rng), 10, 0.01);
+  EXPECT_NEAR(medianOf(j, 2), 0.2, 0.03);  // 1-sigma of the SLAM's vertical jitter
+  EXPECT_EQ(medianOf(j, 0), 0.0);
+  for (const auto& x : j) EXPECT_EQ(x.x(), x.y());
+}
+
+TEST(SlamJitter, AnIsolatedOutlierDoesNotShowAsJitter) {
+  std::mt19937 rng(7);
+  const std::vector<Vec3> truth = track(400);
+  std::vector<Vec3> fixes = noisy(truth, 0.02, rng);
+  fixes[200] += Vec3(8.0, -5.0, 3.0);
+  const std::vector<Vec3> j = slamJitter(fixes, slamOf(truth, 0, 0, rng), 10, 0.01);
+  for (std::size_t i = 190; i < 210; ++i) EXPECT_EQ(j[i].norm(), 0.0) << i;
+}
+
+/// A fused result along a straight road: every pose at x = i, fixes at the poses' stamps.
+FusionResult straightRoad(std::size_t n, double jitter_v, double std_dev) {
+  FusionResult f;
+  for (std::size_t i = 0; i < n; ++i) {
+    Pose p;
+    p.stamp = 0.1 * static_cast<double>(i);
+    p.position = Vec3(static_cast<double>(i), 0.0, 0.0);
+    f.poses.push_back(p);
+    FixOutcome o;
+    o.stamp = p.stamp;
+    o.position = Vec3(static_cast<double>(i), 0.05, (i % 2 == 0) ? 0.3 : -0.3);
+    o.error = o.position - p.position;
+    o.std_dev = Vec3::Constant(std_dev);
+    o.slam_jitter = Vec3(0.0, 0.0, jitter_v);
+    f.fixes.push_back(o);
+  }
+  return f;
+}
+
+TEST(GnssDetail, PosesTakeTheFixesWhereTheSlamJitters) {
+  FusionResult f = straightRoad(50, 0.3, 0.01);
+  f.fixes[20].verdict = FixVerdict::kOutlier;
+  f.fixes[20].position.z() = 40.0;  // never used
+  takeGnssDetail(f);
+  const double gain = 0.09 / (0.09 + 0.0001);
+  for (std::size_t i = 0; i < 50; ++i) {
+    if (i == 20) continue;
+    EXPECT_NEAR(f.poses[i].position.z(), gain * f.fixes[i].position.z(), 1e-9) << i;
+    EXPECT_NEAR(f.poses[i].position.y(), 0.0, 1e-12) << i;  // no horizontal jitter: kept
+    EXPECT_NEAR(f.detail_gain[i], gain, 1e-9) << i;
+  }
+  // Between the inliers around the outlier: their track interpolated, not the outlier.
+  EXPECT_NEAR(f.poses[20].position.z(), gain * 0.5 * (-0.3 - 0.3), 1e-9);
+  EXPECT_NEAR(f.slam_jitter_v, 0.3, 1e-12);
+  EXPECT_EQ(f.detail_poses, 50u);
+}
+
+/// A fix stamped t on the GNSS clock was taken at SLAM time t + time_offset: with the stamps
+/// moved by the offset, every pose takes the same fix as without.
+TEST(GnssDetail, TheClockOffsetPairsEachPoseWithItsFix) {
+  FusionResult plain = straightRoad(50, 0.3, 0.01);
+  FusionResult late = plain;
+  late.time_offset = 0.35;
+  for (auto& o : late.fixes) o.stamp -= 0.35;
+  takeGnssDetail(plain);
+  takeGnssDetail(late);
+  for (std::size_t i = 0; i < 50; ++i) {
+    EXPECT_NEAR(late.poses[i].position.z(), plain.poses[i].position.z(), 1e-9) << i;
+  }
+  EXPECT_EQ(late.detail_poses, 50u);
+}
+
+TEST(GnssDetail, NothingMovesWhereTheSlamIsSmoothOrTheFixesAreFarApart) {
+  FusionResult smooth = straightRoad(50, 0.0, 0.01);
+  const Trajectory before = smooth.poses;
+  takeGnssDetail(smooth);
+  EXPECT_EQ(smooth.detail_poses, 0u);
+  for (std::size_t i = 0; i < before.size(); ++i) {
+    EXPECT_EQ(smooth.poses[i].position, before[i].position);
+  }
+  FusionResult gap = straightRoad(50, 0.3, 0.01);
+  for (std::size_t i = 21; i < 30; ++i) gap.fixes[i].verdict = FixVerdict::kOutlier;
+  takeGnssDetail(gap);
+  for (std::size_t i = 21; i < 30; ++i) EXPECT_EQ(gap.poses[i].position.z(), 0.0) << i;
+  EXPECT_EQ(gap.detail_poses, 50u - 9u);
+}
+
+}  // namespace
+}  // namespace flexcloud
