@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "flexcloud/metrics.h"
+
 namespace flexcloud {
 namespace {
 
@@ -61,11 +63,6 @@ Track gnssTrack(const std::vector<GnssPoint>& gnss) {
     out.p.push_back(g.position);
   }
   return out;
-}
-
-double median(std::vector<double> x) {
-  std::nth_element(x.begin(), x.begin() + x.size() / 2, x.end());
-  return x[x.size() / 2];
 }
 
 /// The speeds compared: the GNSS's at every sample, the SLAM's on the finer grid of offsets,

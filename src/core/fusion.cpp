@@ -10,6 +10,7 @@
 
 #include "flexcloud/clock_offset.h"
 #include "flexcloud/gnss_detail.h"
+#include "flexcloud/metrics.h"
 #include "flexcloud/slam_jitter.h"
 #include "flexcloud/trajectory.h"
 
@@ -44,12 +45,10 @@ Noise noiseOf(const Params& p, double factor) {
           p.slam_scale_noise / 100.0 * per_sqrt_km};
 }
 
-/// Median absolute value; x is reordered.
-double medianAbs(std::vector<double>& x) {
-  if (x.empty()) return std::numeric_limits<double>::quiet_NaN();
+/// Median absolute value (NaN when empty).
+double medianAbs(std::vector<double> x) {
   for (double& v : x) v = std::abs(v);
-  std::nth_element(x.begin(), x.begin() + x.size() / 2, x.end());
-  return x[x.size() / 2];
+  return median(std::move(x));
 }
 
 /// An upper bound of the horizontal white noise of a track, m: the third difference of
@@ -465,8 +464,7 @@ class Fusion {
   void solveStages() {
     std::vector<double> r0;
     for (const auto& f : fixes_) r0.push_back(residualOf(f).norm());
-    std::nth_element(r0.begin(), r0.begin() + r0.size() / 2, r0.end());
-    double floor = std::max(1.0, r0[r0.size() / 2]);
+    double floor = std::max(1.0, median(std::move(r0)));
     // The stages decide which fixes are outliers; a few fixes per keyframe decide it as well as
     // all of them, at a fraction of the time on long drives. The last stages use every fix.
     const std::size_t stride = std::max<std::size_t>(1, fixes_.size() / (3 * keyframes_.size()));
@@ -569,10 +567,7 @@ class Fusion {
           break;
       }
     }
-    if (!sigmas.empty()) {
-      std::nth_element(sigmas.begin(), sigmas.begin() + sigmas.size() / 2, sigmas.end());
-      out_.median_std_h = sigmas[sigmas.size() / 2];
-    }
+    if (!sigmas.empty()) out_.median_std_h = median(std::move(sigmas));
     if (unknown_h_ == kUnknownStdStart) {
       out_.estimated_std_h = out_.estimated_std_v = std::numeric_limits<double>::quiet_NaN();
     }

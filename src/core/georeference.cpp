@@ -105,9 +105,7 @@ Alignment robustAlignment(const Trajectory& poses,
     for (std::size_t i = 0; i < src.size(); ++i) {
       r[i] = (fit.rotation * src[i] + fit.translation - dst[i]).norm();
     }
-    std::vector<double> sorted = r;
-    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-    const double c = std::max(0.1, 3.0 * sorted[sorted.size() / 2]);
+    const double c = std::max(0.1, 3.0 * median(r));
     for (std::size_t i = 0; i < src.size(); ++i) w[i] = arc[i] / (1.0 + (r[i] / c) * (r[i] / c));
     fit = umeyama(src, dst, w, false);
   }

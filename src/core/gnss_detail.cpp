@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <optional>
 
+#include "flexcloud/metrics.h"
+
 namespace flexcloud {
 namespace {
 
@@ -21,16 +23,10 @@ std::vector<const FixOutcome*> inliers(const FusionResult& f) {
   return out;
 }
 
-double median(std::vector<double>& x) {
-  if (x.empty()) return 0.0;
-  std::nth_element(x.begin(), x.begin() + static_cast<std::ptrdiff_t>(x.size() / 2), x.end());
-  return x[x.size() / 2];
-}
-
 double medianInterval(const std::vector<const FixOutcome*>& in) {
   std::vector<double> d;
   for (std::size_t k = 1; k < in.size(); ++k) d.push_back(in[k]->stamp - in[k - 1]->stamp);
-  return median(d);
+  return d.empty() ? 0.0 : median(std::move(d));
 }
 
 Vec3 gainOf(const FixOutcome& o) {
@@ -65,9 +61,9 @@ void takeGnssDetail(FusionResult& f) {
   const std::vector<const FixOutcome*> in = inliers(f);
   std::vector<double> h, v;
   for (const FixOutcome* o : in) h.push_back(o->slam_jitter.x()), v.push_back(o->slam_jitter.z());
-  f.slam_jitter_h = median(h);
-  f.slam_jitter_v = median(v);
   if (in.empty()) return;
+  f.slam_jitter_h = median(std::move(h));
+  f.slam_jitter_v = median(std::move(v));
   const double gap = kMaxGap * medianInterval(in);
   std::size_t k = 0;
   for (std::size_t i = 0; i < f.poses.size(); ++i) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace flexcloud {
 
@@ -29,6 +30,13 @@ ErrorStats ErrorAccumulator::stats() const {
   s.std = std::sqrt(std::max(0.0, sum_sq_ / n - s.mae * s.mae));
   s.max = max_;
   return s;
+}
+
+double median(std::vector<double> values) {
+  if (values.empty()) return std::numeric_limits<double>::quiet_NaN();
+  const auto mid = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+  std::nth_element(values.begin(), mid, values.end());
+  return *mid;
 }
 
 ErrorStats errorStats(const std::vector<double>& distances) {

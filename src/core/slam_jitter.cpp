@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "flexcloud/metrics.h"
+
 namespace flexcloud {
 namespace {
 
@@ -17,11 +19,6 @@ std::vector<Vec3> thirdDifferences(const std::vector<Vec3>& x) {
     d.push_back((x[j + 3] - 3.0 * x[j + 2] + 3.0 * x[j + 1] - x[j]).cwiseAbs());
   }
   return d;
-}
-
-double median(std::vector<double>& x) {
-  std::nth_element(x.begin(), x.begin() + static_cast<std::ptrdiff_t>(x.size() / 2), x.end());
-  return x[x.size() / 2];
 }
 
 /// White-noise 1-sigma, horizontal (x and y pooled) and vertical, from the |third
