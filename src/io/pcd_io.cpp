@@ -1,7 +1,5 @@
 #include "flexcloud/io/pcd_io.h"
 
-#include <pcl/io/lzf.h>
-
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
@@ -12,6 +10,7 @@
 #include <limits>
 
 #include "flexcloud/io/pcd_ascii.h"
+#include "flexcloud/io/pcd_compressed.h"
 #include "flexcloud/io/pcd_header.h"
 #include "flexcloud/io/pcd_stream.h"
 #include "flexcloud/types.h"
@@ -35,15 +34,6 @@ pcl::PCLPointCloud2 emptyCloud(const PcdHeader& h) {
   return cloud;
 }
 
-std::string readBody(const std::string& path, const PcdHeader& h) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path + ": cannot open: " + std::strerror(errno));
-  in.seekg(static_cast<std::streamoff>(h.data_offset));
-  std::string body((std::istreambuf_iterator<char>(in)), {});
-  if (in.bad()) throw Error(path + ": read error");
-  return body;
-}
-
 void readAscii(const std::string& path, const PcdHeader& h, pcl::PCLPointCloud2& cloud) {
   PcdAsciiReader reader(path);
   cloud.data.resize(h.points * h.point_step);  // bounded by the body's size (header check)
@@ -52,35 +42,13 @@ void readAscii(const std::string& path, const PcdHeader& h, pcl::PCLPointCloud2&
   reader.read(extra.data(), 1);  // throws for a point beyond the header's count
 }
 
+/// Through the same decoder as the streamed warp (its column-by-column LZF): the whole body
+/// is never held packed beside the cloud.
 void readCompressed(const std::string& path, const PcdHeader& h, pcl::PCLPointCloud2& cloud) {
-  const std::string body = readBody(path, h);
-  if (h.points == 0) return;
-  // (the cloud's buffer is allocated below, once the sizes are known to agree)
-  std::uint32_t sizes[2];
-  if (body.size() < sizeof(sizes)) throw Error(path + ": the compressed body is missing");
-  std::memcpy(sizes, body.data(), sizeof(sizes));
-  const std::uint64_t expected = static_cast<std::uint64_t>(h.points) * h.point_step;
-  if (sizes[1] != expected) {
-    throw Error(path + ": the compressed body unpacks to " + std::to_string(sizes[1]) +
-                " bytes, the header needs " + std::to_string(expected));
-  }
-  if (sizes[0] > body.size() - sizeof(sizes)) {
-    throw Error(path + ": the compressed body is shorter than it says (file cut short?)");
-  }
+  PcdCompressedReader reader(path);
   cloud.data.resize(h.points * h.point_step);
-  std::vector<std::uint8_t> packed(sizes[1]);
-  const unsigned got =
-      pcl::lzfDecompress(body.data() + sizeof(sizes), sizes[0], packed.data(), sizes[1]);
-  if (got != sizes[1]) throw Error(path + ": the compressed body is corrupt");
-  // PCL stores a compressed body field by field: every point's value of the first field, ...
-  std::size_t column = 0;
-  for (const auto& f : h.fields) {
-    const std::size_t bytes = f.size * f.count;
-    for (std::size_t i = 0; i < h.points; ++i) {
-      std::memcpy(cloud.data.data() + i * h.point_step + f.offset,
-                  packed.data() + column + i * bytes, bytes);
-    }
-    column += bytes * h.points;
+  if (reader.read(cloud.data.data(), h.points) != h.points) {
+    throw Error(path + ": the compressed body holds fewer points than the header");
   }
 }
 

@@ -156,7 +156,10 @@ TEST(PcdCompressedReader, ChunksEqualPclsWholeRead) {
   }
   EXPECT_EQ(reader.read(got.data(), 10), 0u);
   EXPECT_EQ(got, reference.data);
-  EXPECT_EQ(readPcd(path).data, reference.data);  // and the whole read (PCL's codec) agrees
+  EXPECT_EQ(readPcd(path).data, reference.data);  // and so does the whole read
+  pcl::PCLPointCloud2 pcl_read;                   // and PCL's own reader of the file
+  ASSERT_EQ(pcl::io::loadPCDFile(path, pcl_read), 0);
+  EXPECT_EQ(pcl_read.data, reference.data);
 }
 
 }  // namespace
