@@ -96,12 +96,13 @@ visualization_msgs::MarkerArray rejectedFixes(const GeoreferenceResult& r, const
   text.scale.z = 3.0;
   text.color.r = text.color.g = text.color.b = text.color.a = 1.0f;
   char buf[256];
-  std::snprintf(
-      buf, sizeof(buf),
-      "GNSS: %zu used, %zu rejected; clock offset %.3f s; lever arm %.2f %.2f %.2f m; "
-      "std-dev %.3f m (h); SLAM noise x%.1f",
-      f.used, f.outliers, f.time_offset, f.lever_arm.x(), f.lever_arm.y(), f.lever_arm.z(),
-      std::isfinite(f.estimated_std_h) ? f.estimated_std_h : f.median_std_h, f.slam_noise_scale);
+  std::snprintf(buf, sizeof(buf),
+                "GNSS: %zu used, %zu rejected; clock offset %.3f s; lever arm %.2f %.2f %.2f m; "
+                "std-dev %.3f m (h); SLAM noise x%.1f, jitter %.3f / %.3f m (h / v)",
+                f.used, f.outliers, f.time_offset, f.lever_arm.x(), f.lever_arm.y(),
+                f.lever_arm.z(),
+                std::isfinite(f.estimated_std_h) ? f.estimated_std_h : f.median_std_h,
+                f.slam_noise_scale, f.slam_jitter_h, f.slam_jitter_v);
   text.text = buf;
   a.markers.push_back(text);
   return a;
