@@ -51,20 +51,6 @@ double medianAbs(std::vector<double> x) {
   return median(std::move(x));
 }
 
-/// An upper bound of the horizontal white noise of a track, m: the third difference of
-/// consecutive positions takes out position, speed and acceleration, and has 20 times the
-/// variance of white noise (median |N(0, 20 s^2)| = 3.016 s); what the motion leaves in it
-/// only raises the bound.
-double roughnessBound(const std::vector<Vec3>& track) {
-  std::vector<double> d3;
-  for (std::size_t j = 0; j + 3 < track.size(); ++j) {
-    const Vec3 d = track[j + 3] - 3.0 * track[j + 2] + 3.0 * track[j + 1] - track[j];
-    d3.push_back(d.x());
-    d3.push_back(d.y());
-  }
-  return medianAbs(d3) / 3.016;
-}
-
 Eigen::Isometry3d isometry(const Pose& p) {
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
   t.linear() = p.orientation.toRotationMatrix();
@@ -405,7 +391,7 @@ class Fusion {
   void adaptSlamNoise(const Eigen::Isometry3d& T_enu_map) {
     std::vector<Vec3> track;
     for (const auto& f : fixes_) track.push_back(f.factor.fix);
-    roughness_ = std::max(params_.gnss_std_floor, roughnessBound(track));
+    roughness_ = std::max(params_.gnss_std_floor, roughness(track).x());  // horizontal
     out_.gnss_roughness_h = roughness_;
     for (int round = 0; round < kNoiseRounds; ++round) {
       const double stiff = stiffness();

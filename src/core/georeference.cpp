@@ -301,8 +301,11 @@ void sheetFromFusion(const Params& params, const CancelToken& cancel, Georeferen
       chooseControlPoints(r.poses, targets, usable, r.T_enu_map, r.cuboid_enu, params);
   // Where the poses took most of their position from the fixes, the SLAM's orientation there
   // is no better than its position: no points beside those control points.
+  constexpr double kSteadyGain = 0.5;
   std::vector<bool> steady(r.poses.size());
-  for (std::size_t i = 0; i < steady.size(); ++i) steady[i] = r.fusion->detail_gain[i] <= 0.5;
+  for (std::size_t i = 0; i < steady.size(); ++i) {
+    steady[i] = r.fusion->detail_gain[i] <= kSteadyGain;
+  }
   const SheetWithBeside s = buildSheetWithBeside(r.control_points, r.poses, r.fusion->poses,
                                                  r.T_enu_map, r.cuboid_enu, params, steady);
   r.sheet = s.sheet;

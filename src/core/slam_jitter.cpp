@@ -22,8 +22,7 @@ std::vector<Vec3> thirdDifferences(const std::vector<Vec3>& x) {
 }
 
 /// White-noise 1-sigma, horizontal (x and y pooled) and vertical, from the |third
-/// differences| d[lo, hi): a third difference of white noise has 20 times its variance, and
-/// the median of |N(0, 20 s^2)| is 3.016 s.
+/// differences| d[lo, hi) (see roughness()).
 Eigen::Vector2d spread(const std::vector<Vec3>& d, std::size_t lo, std::size_t hi) {
   std::vector<double> h, v;
   for (std::size_t j = lo; j < hi; ++j) {
@@ -40,6 +39,11 @@ double excess(double residual, double gnss, double floor) {
 }
 
 }  // namespace
+
+Eigen::Vector2d roughness(const std::vector<Vec3>& track) {
+  const std::vector<Vec3> d = thirdDifferences(track);
+  return spread(d, 0, d.size());
+}
 
 std::vector<Vec3> slamJitter(const std::vector<Vec3>& fixes, const std::vector<Vec3>& slam,
                              int window, double floor) {

@@ -50,6 +50,16 @@ double medianOf(const std::vector<Vec3>& j, int axis) {
   return v[v.size() / 2];
 }
 
+/// A track's roughness is its white noise: the curving, climbing motion leaves next to nothing.
+TEST(SlamJitter, TheRoughnessOfATrackIsItsWhiteNoise) {
+  std::mt19937 rng(11);
+  const Eigen::Vector2d r = roughness(noisy(track(3000), 0.05, rng));
+  EXPECT_NEAR(r.x(), 0.05, 0.004);
+  EXPECT_NEAR(r.y(), 0.05, 0.006);
+  EXPECT_LT(roughness(track(3000)).maxCoeff(), 1e-3);
+  EXPECT_TRUE(std::isnan(roughness(track(3)).x()));
+}
+
 TEST(SlamJitter, NoneWhereTheSlamIsSmoothWhateverTheGnssNoise) {
   std::mt19937 rng(3);
   const std::vector<Vec3> truth = track(1500);
