@@ -198,7 +198,8 @@ struct Fix {
   std::size_t keyframe = 0;  ///< index into the keyframes
   GnssFactor factor;
   bool known_std = true;
-  Vec3 own = Vec3::Zero();     ///< its std-dev: reported, or estimated where not given
+  /// Its std-dev (reported, or estimated where not given) with the SLAM's jitter added.
+  Vec3 own = Vec3::Zero();
   Vec3 jitter = Vec3::Zero();  ///< the SLAM's pose-to-pose error at its stamp (1-sigma)
   Vec3 sigma = Vec3::Zero();   ///< what it is weighted with in the current stage
 };
