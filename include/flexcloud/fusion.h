@@ -41,7 +41,8 @@ struct FixOutcome {
   double residual = 0.0;  ///< m, from the fused antenna position (NaN where not fused)
   /// The fix less the fused antenna position, ENU, m (NaN where not fused).
   Eigen::Vector3d error = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
-  /// Its own 1-sigma std-dev (reported, or estimated where not given; floored), ENU, m.
+  /// Its own 1-sigma std-dev (reported, or estimated where not given; floored), ENU, m. For a
+  /// fix that took no part: the reported one, NaN where none was given.
   Eigen::Vector3d std_dev = Eigen::Vector3d::Zero();
   /// The SLAM's pose-to-pose error at its stamp (1-sigma, x = y horizontal, z vertical), m:
   /// added to std_dev in the fusion's weight of the fix.

@@ -264,6 +264,7 @@ class Fusion {
       o.position = g.position;
       o.residual = std::numeric_limits<double>::quiet_NaN();
       const bool known = g.std_dev.allFinite();
+      o.std_dev = known ? g.std_dev : Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
       if (g.stamp < first || g.stamp > last) {
         o.verdict = FixVerdict::kOutsidePoses;
       } else if (excluded(g.stamp)) {

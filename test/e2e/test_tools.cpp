@@ -115,7 +115,16 @@ TEST_F(Tools, BagWithMapGivesEveryOutputAndAccurateMap) {
   for (std::string line; std::getline(fixes, line);) {
     if (line.empty() || line[0] == '#') continue;
     ++lines;
-    used += line.find(" used") != std::string::npos ? 1 : 0;
+    std::istringstream fields(line);
+    std::vector<std::string> f{std::istream_iterator<std::string>(fields), {}};
+    ASSERT_EQ(f.size(), 11u) << line;
+    if (f[6] != "used") continue;
+    ++used;
+    // The std-dev it was weighted with (the simulated receiver's, RTK) and the SLAM's jitter
+    // (none on a simulated drive) are given beside the verdict.
+    EXPECT_GT(std::stod(f[7]), 0.0) << line;
+    EXPECT_LT(std::stod(f[7]), 0.1) << line;
+    EXPECT_LT(std::stod(f[9]), 0.05) << line;
   }
   EXPECT_EQ(lines, judged);
   EXPECT_EQ(used, fu["fixes_used"].get<std::size_t>());
