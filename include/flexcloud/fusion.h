@@ -47,6 +47,10 @@ struct FixOutcome {
   /// The SLAM's pose-to-pose error at its stamp (1-sigma, x = y horizontal, z vertical), m:
   /// added to std_dev in the fusion's weight of the fix.
   Eigen::Vector3d slam_jitter = Eigen::Vector3d::Zero();
+  /// How little the SLAM's interpolation knows of where the vehicle was at its stamp (1-sigma,
+  /// m; 0 at a pose's stamp, up to half the poses' distance in a long gap between them, as at
+  /// a stop of a SLAM that keeps a pose every few metres): added to std_dev as well.
+  double slam_gap = 0.0;
   double weight = 0.0;  ///< final weight of the robust loss, 0..1
   FixVerdict verdict = FixVerdict::kUsed;
 };

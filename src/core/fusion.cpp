@@ -27,6 +27,7 @@ constexpr double kStiffSlam = 2.0;
 constexpr int kNoiseRounds = 2;
 constexpr double kMinOffsetSigma = 0.005;  // s, tightest the speed profiles hold the offset
 constexpr int kJitterWindow = 10;          // fixes on either side for the SLAM's jitter
+constexpr double kGapAccel = 3.0;          // m/s^2: the change of speed a gap between poses hides
 
 using Vec3 = Eigen::Vector3d;
 
@@ -71,6 +72,22 @@ Eigen::Isometry3d slamAt(const Trajectory& poses, double t) {
   out.linear() = a.orientation.slerp(f, b.orientation).toRotationMatrix();
   out.translation() = a.position + f * (b.position - a.position);
   return out;
+}
+
+/// 1-sigma (m) of where the vehicle was at stamp t between the two SLAM poses around it, which
+/// their linear interpolation cannot know: nothing at a pose's own stamp or between poses close
+/// in time, up to half their distance apart across a long gap (a SLAM that keeps a pose every
+/// few metres leaves a gap of seconds at every stop, and the car braked and started in it).
+double gapSpread(const Trajectory& poses, double t) {
+  const auto it = std::lower_bound(poses.begin(), poses.end(), t,
+                                   [](const Pose& p, double s) { return p.stamp < s; });
+  if (it == poses.begin() || it == poses.end()) return 0.0;
+  const Pose& b = *it;
+  const Pose& a = *(it - 1);
+  // A change of speed at up to kGapAccel moves the vehicle from the interpolated place by at
+  // most kGapAccel (t - ta) (tb - t) / 2, and never further than the poses lie apart.
+  const double bound = kGapAccel * (t - a.stamp) * (b.stamp - t) / 2.0;
+  return 0.5 * std::min(bound, (b.position - a.position).norm());
 }
 
 /// Keyframes every `spacing` metres of SLAM path (grown so there are at most kMaxKeyframes),
@@ -201,6 +218,7 @@ struct Fix {
   /// Its std-dev (reported, or estimated where not given) with the SLAM's jitter added.
   Vec3 own = Vec3::Zero();
   Vec3 jitter = Vec3::Zero();  ///< the SLAM's pose-to-pose error at its stamp (1-sigma)
+  double gap = 0.0;            ///< the SLAM's interpolation at its stamp (1-sigma, m)
   Vec3 sigma = Vec3::Zero();   ///< what it is weighted with in the current stage
 };
 
@@ -294,6 +312,7 @@ class Fusion {
     f.factor.antenna = at.linear() * out_.lever_arm;
     f.factor.velocity = velocity;
     f.factor.fix = gnss_[j].position;
+    f.gap = gapSpread(poses_, t);
     f.own = f.sigma = ownSigma(gnss_[j].std_dev, kUnknownStdStart, kUnknownStdStart);
     return f;
   }
@@ -317,10 +336,15 @@ class Fusion {
   }
 
   /// The std-dev a fix is weighted with: its own (reported, or the estimate for fixes
-  /// without one) and the SLAM's jitter at its stamp.
+  /// without one), the SLAM's jitter and its interpolation at the fix's stamp.
   Vec3 sigmaOf(const Fix& f, double unknown_h, double unknown_v) const {
     const Vec3 s = ownSigma(gnss_[f.input].std_dev, unknown_h, unknown_v);
-    return (s.cwiseProduct(s) + f.jitter.cwiseProduct(f.jitter)).cwiseSqrt();
+    return (s.cwiseProduct(s) + slamPart2(f)).cwiseSqrt();
+  }
+
+  /// The SLAM's own share of a fix's variance: its jitter and its interpolation, m^2.
+  static Vec3 slamPart2(const Fix& f) {
+    return f.jitter.cwiseProduct(f.jitter) + Vec3::Constant(f.gap * f.gap);
   }
 
   Vec3 ownSigma(const Vec3& reported, double unknown_h, double unknown_v) const {
@@ -416,7 +440,8 @@ class Fusion {
     for (const auto& f : fixes_) {
       if (weightOf(f) < 0.5) continue;
       const Vec3 e = residualOf(f);
-      const double own = f.known_std ? f.own.x() : std::hypot(roughness_, f.jitter.x());
+      const double own =
+          f.known_std ? f.own.x() : std::sqrt(roughness_ * roughness_ + slamPart2(f).x());
       n.push_back(e.x() / own);
       n.push_back(e.y() / own);
     }
@@ -485,8 +510,8 @@ class Fusion {
     std::vector<double> h, v;
     for (const auto& f : fixes_) {
       if (f.known_std || weightOf(f) < 0.5) continue;
-      // The GNSS's own part of the residual: the SLAM's jitter taken out.
-      const Vec3 e = residualOf(f), j2 = f.jitter.cwiseProduct(f.jitter);
+      // The GNSS's own part of the residual: the SLAM's jitter and interpolation taken out.
+      const Vec3 e = residualOf(f), j2 = slamPart2(f);
       h.push_back(std::sqrt(std::max(0.0, 0.5 * (e.x() * e.x() + e.y() * e.y()) - j2.x())));
       v.push_back(std::sqrt(std::max(0.0, e.z() * e.z() - j2.z())));
     }
@@ -531,6 +556,7 @@ class Fusion {
       o.error = -residualOf(f);  // the factor's residual is the fused antenna less the fix
       o.residual = o.error.norm();
       o.slam_jitter = f.jitter;
+      o.slam_gap = f.gap;
       o.std_dev = ownSigma(gnss_[f.input].std_dev, unknown_h_, unknown_v_);
       o.weight = weightOf(f);
       o.verdict = o.weight < kRejectWeight ? FixVerdict::kOutlier : FixVerdict::kUsed;

@@ -316,14 +316,15 @@ std::string fixesText(const GeoreferenceResult& r) {
   s << "# every GNSS fix the fusion judged: stamp (GNSS clock) x y z (enu) residual_m weight "
        "verdict (used, outlier, above_std_threshold, excluded_range, outside_poses) std_h_m "
        "std_v_m (its own: reported, or estimated where not given) slam_jitter_h_m "
-       "slam_jitter_v_m (added to its std-dev in the fusion)\n";
+       "slam_jitter_v_m slam_gap_m (the SLAM's at its stamp, added to its std-dev in the fusion)\n";
   if (!r.fusion) return s.str();
   s << std::fixed;
   for (const auto& o : r.fusion->fixes) {
     s << std::setprecision(6) << o.stamp << ' ' << std::setprecision(4) << o.position.x() << ' '
       << o.position.y() << ' ' << o.position.z() << ' ' << o.residual << ' ' << std::setprecision(3)
       << o.weight << ' ' << toString(o.verdict) << ' ' << std::setprecision(4) << o.std_dev.x()
-      << ' ' << o.std_dev.z() << ' ' << o.slam_jitter.x() << ' ' << o.slam_jitter.z() << '\n';
+      << ' ' << o.std_dev.z() << ' ' << o.slam_jitter.x() << ' ' << o.slam_jitter.z() << ' '
+      << o.slam_gap << '\n';
   }
   return s.str();
 }

@@ -134,5 +134,48 @@ TEST(SimulatedDrive, OutagesNoFixStopsAndClockOffsetAreHandled) {
       good.rmse, good.max, skewed.rmse, estimated.rmse, fused.fusion->time_offset);
 }
 
+/// A SLAM that keeps a pose every 2.5 m (a keyframe trajectory) leaves one gap of half a
+/// minute at a stop. Its interpolation there says nothing of where the car braked and started:
+/// the 150 fixes of the stop are weighted with that uncertainty, not rejected as outliers
+/// (before: 146 rejected), and the map keeps its accuracy against the truth.
+TEST(SimulatedDrive, AKeyframedSlamsStopIsNoOutlier) {
+  sim::SimParams sp;
+  sp.map_points = 50000;
+  sp.stop_duration = 30.0;
+  const sim::SimDrive d = sim::simulateDrive(sp);
+  DriveInput in = test::inputOf(d);
+  in.poses.clear();
+  std::vector<std::size_t> kept;
+  for (std::size_t i = 0; i < d.slam.size(); ++i) {
+    const bool last = i + 1 == d.slam.size();
+    if (!kept.empty() && !last && (d.slam[i].position - in.poses.back().position).norm() < 2.5) {
+      continue;
+    }
+    in.poses.push_back(d.slam[i]);
+    kept.push_back(i);
+  }
+  ASSERT_LT(in.poses.size(), d.slam.size() / 3);
+  const GeoreferenceResult r = georeference(in, test::atSimDatum(d));
+  std::vector<double> dev;
+  for (std::size_t k = 0; k < kept.size(); ++k) {
+    dev.push_back((r.rubbersheet[k].position - d.truth[kept[k]].position).norm());
+  }
+  const ErrorStats traj = errorStats(dev);
+  pcl::PCLPointCloud2 map = sim::slamCloud(d.map);
+  warpCloud(map, *r.sheet, 2);
+  const ErrorStats m =
+      compareClouds(map, sim::truthCloud(d.map), [](const Eigen::Vector3d& x) { return x; });
+  double widest = 0.0;
+  for (const auto& o : r.fusion->fixes) widest = std::max(widest, o.slam_gap);
+  std::printf(
+      "keyframed SLAM (%zu poses), 30 s stop: %zu fixes rejected, largest interpolation "
+      "1-sigma %.2f m; trajectory vs truth RMSE %.3f m, map %.3f m\n",
+      in.poses.size(), r.fusion->outliers, widest, traj.rmse, m.rmse);
+  EXPECT_LE(r.fusion->outliers, 5u);
+  EXPECT_GT(widest, 0.5);  // half the distance between the poses around the stop
+  EXPECT_LT(traj.rmse, 0.03);
+  EXPECT_LT(m.rmse, 0.06);
+}
+
 }  // namespace
 }  // namespace flexcloud
