@@ -215,7 +215,8 @@ struct Fix {
   std::size_t keyframe = 0;  ///< index into the keyframes
   GnssFactor factor;
   bool known_std = true;
-  /// Its std-dev (reported, or estimated where not given) with the SLAM's jitter added.
+  /// Its std-dev (reported, or estimated where not given) with the SLAM's jitter and
+  /// interpolation added.
   Vec3 own = Vec3::Zero();
   Vec3 jitter = Vec3::Zero();  ///< the SLAM's pose-to-pose error at its stamp (1-sigma)
   double gap = 0.0;            ///< the SLAM's interpolation at its stamp (1-sigma, m)
