@@ -151,7 +151,7 @@ double sheetAwayFromStops(const DriveInput& all, const GeoreferenceResult& r) {
 
 /// Where the fused trajectory and the held-out fixes disagree by more than 0.4 m (outside the
 /// disputed stretch), it is along the track and near a stop (doc/ACCURACY.md); away from the
-/// stops the fused trajectory is within a third of the GNSS control points' sheet deviation.
+/// stops the fused trajectory is within half the GNSS control points' sheet deviation.
 void checkStops(const DriveInput& all, const GeoreferenceResult& r, double gnss_cp_away) {
   const std::vector<bool> near = nearStops(all.poses, 8);
   std::vector<double> sheet_away, fused_away, sheet_near, fused_near;

@@ -120,8 +120,8 @@ TEST_F(Tools, BagWithMapGivesEveryOutputAndAccurateMap) {
     ASSERT_EQ(f.size(), 12u) << line;
     if (f[6] != "used") continue;
     ++used;
-    // The std-dev it was weighted with (the simulated receiver's, RTK) and the SLAM's jitter
-    // (none on a simulated drive) are given beside the verdict.
+    // Its own std-dev (the simulated receiver's, RTK), the SLAM's jitter (none on a simulated
+    // drive) and the SLAM's interpolation are given beside the verdict.
     EXPECT_GT(std::stod(f[7]), 0.0) << line;
     EXPECT_LT(std::stod(f[7]), 0.1) << line;
     EXPECT_LT(std::stod(f[9]), 0.05) << line;
