@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "flexcloud/trajectory.h"
+#include "sheet_fit.h"
 
 namespace flexcloud {
 namespace {
@@ -137,7 +138,9 @@ SheetWithBeside buildSheetWithBeside(const ControlPointSelection& cps, const Tra
   SheetWithBeside out;
   out.beside = besidePoints(cps, slam, fused, params.beside_distance, params.above_height, steady);
   for (int round = 0;; ++round) {
-    out.sheet = buildSheet(cps, out.beside, T_enu_map, cuboid);
+    const auto through = buildSheet(cps, out.beside, T_enu_map, cuboid);
+    const auto move = fitSheetTargets(*through, cps, out.beside, slam, fused);
+    out.sheet = movedSheet(cps, out.beside, move, T_enu_map, cuboid);
     const std::vector<std::size_t> bad = foldingPoints(*out.sheet, out.beside, T_enu_map);
     if (bad.empty() || round == 3) break;
     std::vector<PointPair> kept;

@@ -40,8 +40,9 @@ ControlPointSelection chooseControlPoints(const Trajectory& poses,
                                           const Params& params);
 
 /// The sheet with points beside and above the control points at steady poses
-/// (besidePoints()); points that fold the sheet are left out, and the sheet built again, up to
-/// three times.
+/// (besidePoints()), its vertices fitted to the whole fused trajectory (sheet_fit.h); points
+/// that fold the fitted sheet are left out, and the sheet built and fitted again, up to three
+/// times.
 struct SheetWithBeside {
   std::shared_ptr<const RubberSheet> sheet;
   std::vector<PointPair> beside;
