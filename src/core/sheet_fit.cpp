@@ -2,6 +2,7 @@
 
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
+#include <algorithm>
 #include <map>
 
 #include "tet_locator.h"
@@ -13,8 +14,9 @@ constexpr double kRidge = 1e-2;       // keeps a target that few poses see near 
 constexpr double kConsistent = 1e-6;  // m: the barycentric image must be the sheet's own
 
 /// The control point (index into cps.points) each of the sheet's vertices moves with; -1 for
-/// the cuboid's corners. The sheet lists its sources in the order they were given, those within
-/// 1 mm of an earlier one left out: the given sources are walked alongside.
+/// the cuboid's corners. The sheet lists its sources in the order they were given: control
+/// points, points beside, corners. Where it merged a source into an earlier one (within 1 mm)
+/// that order no longer tells which is which: every vertex is -1 then, and nothing is fitted.
 std::vector<int> vertexGroups(const RubberSheet& sheet, const ControlPointSelection& cps,
                               const std::vector<PointPair>& beside) {
   std::map<std::size_t, int> by_pose;
@@ -27,13 +29,10 @@ std::vector<int> vertexGroups(const RubberSheet& sheet, const ControlPointSelect
     const auto it = by_pose.find(b.pose_index);
     given_group.push_back(it == by_pose.end() ? -1 : it->second);
   }
-  // The sheet's sources are in its triangulation frame; its first vertices are the given ones
-  // in order (merged ones skipped), then the 8 corners.
   std::vector<int> groups(sheet.sources().size(), -1);
   const std::size_t corners = 8;
-  const std::size_t kept = sheet.sources().size() - corners;
-  if (sheet.merged() == 0 && kept == given_group.size()) {
-    for (std::size_t v = 0; v < kept; ++v) groups[v] = given_group[v];
+  if (sheet.merged() == 0 && sheet.sources().size() == given_group.size() + corners) {
+    std::copy(given_group.begin(), given_group.end(), groups.begin());
   }
   return groups;
 }
