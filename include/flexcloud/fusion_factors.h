@@ -1,8 +1,8 @@
 #pragma once
 /// The fusion's residuals (fusion.cpp): each as a templated functor, which says what it measures
 /// and evaluates it, and as a cost function with its Jacobians written out, which the solver
-/// uses (a one-hour drive spends most of its fusion in these; automatic differentiation of the
-/// same functors, which the unit tests compare them with, takes several times as long).
+/// uses (on a one-hour drive Ceres's Jacobian time per iteration halved against automatic
+/// differentiation of the same functors, which the unit tests compare them with).
 /// Quaternions are stored x y z w (Eigen's order) and rotate a vector as Eigen does.
 
 #include <ceres/ceres.h>
