@@ -4,6 +4,7 @@
 #include <Eigen/SparseCore>
 #include <algorithm>
 #include <map>
+#include <numeric>
 
 #include "tet_locator.h"
 
@@ -13,26 +14,34 @@ namespace {
 constexpr double kRidge = 1e-2;       // keeps a target that few poses see near where it was
 constexpr double kConsistent = 1e-6;  // m: the barycentric image must be the sheet's own
 
+/// The control point (index into cps.points) each point beside belongs to; -1 for none.
+std::vector<int> ownersOf(const ControlPointSelection& cps, const std::vector<PointPair>& beside) {
+  std::map<std::size_t, int> by_pose;
+  for (std::size_t k = 0; k < cps.points.size(); ++k) {
+    by_pose[cps.points[k].pose_index] = static_cast<int>(k);
+  }
+  std::vector<int> owner;
+  for (const auto& b : beside) {
+    const auto it = by_pose.find(b.pose_index);
+    owner.push_back(it == by_pose.end() ? -1 : it->second);
+  }
+  return owner;
+}
+
 /// The control point (index into cps.points) each of the sheet's vertices moves with; -1 for
 /// the cuboid's corners. The sheet lists its sources in the order they were given: control
 /// points, points beside, corners. Where it merged a source into an earlier one (within 1 mm)
 /// that order no longer tells which is which: every vertex is -1 then, and nothing is fitted.
 std::vector<int> vertexGroups(const RubberSheet& sheet, const ControlPointSelection& cps,
                               const std::vector<PointPair>& beside) {
-  std::map<std::size_t, int> by_pose;
-  std::vector<int> given_group;
-  for (std::size_t k = 0; k < cps.points.size(); ++k) {
-    by_pose[cps.points[k].pose_index] = static_cast<int>(k);
-    given_group.push_back(static_cast<int>(k));
-  }
-  for (const auto& b : beside) {
-    const auto it = by_pose.find(b.pose_index);
-    given_group.push_back(it == by_pose.end() ? -1 : it->second);
-  }
+  std::vector<int> given(cps.points.size());
+  std::iota(given.begin(), given.end(), 0);
+  const std::vector<int> owner = ownersOf(cps, beside);
+  given.insert(given.end(), owner.begin(), owner.end());
   std::vector<int> groups(sheet.sources().size(), -1);
   const std::size_t corners = 8;
-  if (sheet.merged() == 0 && sheet.sources().size() == given_group.size() + corners) {
-    std::copy(given_group.begin(), given_group.end(), groups.begin());
+  if (sheet.merged() == 0 && sheet.sources().size() == given.size() + corners) {
+    std::copy(given.begin(), given.end(), groups.begin());
   }
   return groups;
 }
@@ -105,14 +114,10 @@ std::shared_ptr<const RubberSheet> movedSheet(ControlPointSelection cps,
                                               const std::vector<Eigen::Vector3d>& move,
                                               const Eigen::Isometry3d& T_enu_map,
                                               const Cuboid& cuboid) {
-  std::map<std::size_t, Eigen::Vector3d> by_pose;
-  for (std::size_t k = 0; k < cps.points.size(); ++k) {
-    cps.points[k].target += move[k];
-    by_pose[cps.points[k].pose_index] = move[k];
-  }
-  for (auto& b : beside) {
-    const auto it = by_pose.find(b.pose_index);
-    if (it != by_pose.end()) b.target += it->second;
+  const std::vector<int> owner = ownersOf(cps, beside);
+  for (std::size_t k = 0; k < cps.points.size(); ++k) cps.points[k].target += move[k];
+  for (std::size_t b = 0; b < beside.size(); ++b) {
+    if (owner[b] >= 0) beside[b].target += move[static_cast<std::size_t>(owner[b])];
   }
   return buildSheet(cps, beside, T_enu_map, cuboid);
 }
