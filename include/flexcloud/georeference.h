@@ -51,8 +51,10 @@ struct GeoreferenceResult {
   std::optional<Datum> datum;
   PreparedGnss gnss;
   PoseCounts pose_counts;
-  Trajectory poses;                                    ///< prepared SLAM poses, map frame
-  std::vector<std::optional<GnssPoint>> gnss_at_pose;  ///< interpolated GNSS per pose, ENU
+  Trajectory poses;  ///< prepared SLAM poses, map frame
+  /// Interpolated GNSS per pose, ENU; with the fusion, at the instant of the pose (the estimated
+  /// clock offset applied; stamps on the SLAM clock).
+  std::vector<std::optional<GnssPoint>> gnss_at_pose;
   std::size_t poses_matched = 0;
   Eigen::Isometry3d T_enu_map = Eigen::Isometry3d::Identity();  ///< applied rigid transform
   double scale = 1.0;  ///< scale of the similarity fit (reported, not applied)

@@ -197,13 +197,23 @@ void prepareInput(const DriveInput& input, const Params& params, GeoreferenceRes
   }
 }
 
-/// The GNSS at every pose stamp; throws when no pose has any.
-void matchGnss(const Params& params, GeoreferenceResult& r) {
+/// The GNSS at every pose stamp, its stamps moved by `offset` seconds onto the SLAM's clock.
+void matchGnssAt(double offset, const Params& params, GeoreferenceResult& r) {
   std::vector<double> stamps;
   stamps.reserve(r.poses.size());
-  for (const auto& p : r.poses) stamps.push_back(p.stamp);
+  for (const auto& p : r.poses) stamps.push_back(p.stamp - offset);
   r.gnss_at_pose = interpolateGnss(r.gnss.points, stamps, params);
-  for (const auto& g : r.gnss_at_pose) r.poses_matched += g.has_value() ? 1 : 0;
+  r.poses_matched = 0;
+  for (std::size_t i = 0; i < r.poses.size(); ++i) {
+    if (!r.gnss_at_pose[i]) continue;
+    r.gnss_at_pose[i]->stamp += offset;
+    ++r.poses_matched;
+  }
+}
+
+/// The GNSS at every pose stamp; throws when no pose has any.
+void matchGnss(const Params& params, GeoreferenceResult& r) {
+  matchGnssAt(0.0, params, r);
   if (r.poses_matched == 0) {
     throw Error("no time overlap: GNSS spans " +
                 span(r.gnss.points.front().stamp, r.gnss.points.back().stamp) + ", poses span " +
@@ -286,6 +296,9 @@ void sheetFromFusion(const Params& params, const CancelToken& cancel, Georeferen
   const Alignment start = robustAlignment(r.poses, r.gnss_at_pose, params);
   seconds.alignment = watch.lap();
   r.fusion = fuseTrajectory(r.poses, r.gnss.points, start.T_enu_map, params, cancel);
+  // A fix stamped t was taken at SLAM time t + offset: the GNSS the poses are compared with
+  // (the metrics, trajectory_gnss.txt, the revisit check) is taken at their own instant.
+  if (r.fusion->time_offset != 0.0) matchGnssAt(r.fusion->time_offset, params, r);
   const Alignment a = alignToFused(r.poses, r.fusion->poses);
   r.T_enu_map = a.T_enu_map;
   r.scale = a.scale;

@@ -1,10 +1,13 @@
 // The real drive of ../shared/data/a2rl against the published method's accuracy on it.
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
+#include <optional>
 
+#include "flexcloud/clock_offset.h"
 #include "flexcloud/georeference.h"
 #include "flexcloud/io/text_io.h"
 
@@ -41,13 +44,12 @@ DriveInput load(const std::string& dir) {
   return in;
 }
 
-/// The GNSS of this data set was interpolated at the pose stamps by its publisher: its clock is
-/// the SLAM's by construction, so no offset is estimated. Its std-devs are not given (0): the
-/// fusion estimates them; the GNSS control points take the publisher's word (RTK, 1 cm).
+/// The file gives no std-devs (0): the fusion estimates them; the GNSS control points take the
+/// publisher's word (RTK, 1 cm). Everything else is the defaults, which estimate the clock
+/// offset between the SLAM's stamps and the GNSS's (TheSlamStampsLagTheGnssByATenthOfASecond).
 Params forThisData(bool fusion) {
   Params p;
   p.fusion = fusion;
-  p.max_time_offset = 0.0;
   if (!fusion) p.default_std_dev = 0.01;
   return p;
 }
@@ -130,62 +132,132 @@ std::vector<bool> nearStops(const Trajectory& poses, std::size_t reach) {
   return near;
 }
 
-/// The part of d along the horizontal direction of travel at pose i of `track`.
-double alongTrack(const Trajectory& track, std::size_t i, const Eigen::Vector3d& d) {
-  const std::size_t a = i > 0 ? i - 1 : i, b = std::min(track.size() - 1, i + 1);
-  const Eigen::Vector2d dir = (track[b].position - track[a].position).head<2>().normalized();
-  return dir.dot(d.head<2>());
+/// Horizontal speed of the GNSS track at i (m/s), over its two neighbours.
+double speedAt(const std::vector<GnssPoint>& g, std::size_t i) {
+  return (g[i + 1].position - g[i - 1].position).head<2>().norm() /
+         (g[i + 1].stamp - g[i - 1].stamp);
 }
 
-/// MAE (m) of the rubber-sheeted trajectory at the held-out fixes outside the disputed
-/// stretch and away from the stops.
-double sheetAwayFromStops(const DriveInput& all, const GeoreferenceResult& r) {
-  const std::vector<bool> near = nearStops(all.poses, 8);
-  std::vector<double> d;
-  for (std::size_t i = 5; i < all.poses.size(); i += 10) {
-    if ((i >= kDisputedBegin && i < kDisputedEnd) || near[i]) continue;
-    d.push_back((r.rubbersheet[i].position - all.local_gnss[i].position).norm());
+/// A least-squares slope through the origin, and the RMS of y before and after it is taken out.
+struct Slope {
+  double slope = 0.0, rms_before = 0.0, rms_after = 0.0;
+};
+
+Slope fitSlope(const std::vector<double>& x, const std::vector<double>& y) {
+  double xy = 0.0, xx = 0.0, yy = 0.0;
+  for (std::size_t i = 0; i < x.size(); ++i)
+    xy += x[i] * y[i], xx += x[i] * x[i], yy += y[i] * y[i];
+  Slope s;
+  s.slope = xy / xx;
+  const auto n = static_cast<double>(x.size());
+  s.rms_before = std::sqrt(yy / n);
+  s.rms_after = std::sqrt(std::max(0.0, yy - s.slope * xy) / n);
+  return s;
+}
+
+/// This drive's SLAM stamps lag its GNSS by about a tenth of a second (one scan of a 10 Hz
+/// LiDAR), which the fusion's defaults estimate. Shown without flexcloud's clock code: over
+/// every window of 21 poses the SLAM is fitted rigidly to the GNSS (Eigen's umeyama), and the
+/// residual along the track at the middle pose is compared with how much faster than the
+/// window's mean the car goes there. An offset dt puts the GNSS v dt ahead of the SLAM, less
+/// the window's mean: the slope is dt, the same at every speed, and taking it out halves the
+/// residual. The speed profiles (estimateClockOffset) must agree with it.
+TEST(A2rl, TheSlamStampsLagTheGnssByATenthOfASecond) {
+  const std::string dir = findData();
+  if (dir.empty()) GTEST_SKIP() << "a2rl data not found (set FLEXCLOUD_A2RL_DIR); skipped";
+  const DriveInput in = load(dir);
+  const std::vector<GnssPoint>& g = in.local_gnss;
+  constexpr int kHalf = 10;
+  constexpr double kBands[] = {0.0, 6.0, 12.0, 1e9};  // m/s
+  std::vector<double> dv[3], along[3], dv_all, along_all;
+  // speedAt(j) reads j - 1 and j + 1: the windows keep one fix from either end.
+  for (std::size_t i = kHalf + 1; i + kHalf + 1 < g.size(); ++i) {
+    Eigen::Matrix3Xd src(3, 2 * kHalf + 1), dst(3, 2 * kHalf + 1);
+    double mean_speed = 0.0;
+    for (int k = -kHalf; k <= kHalf; ++k) {
+      src.col(k + kHalf) = in.poses[i + k].position;
+      dst.col(k + kHalf) = g[i + k].position;
+      mean_speed += speedAt(g, i + k) / (2 * kHalf + 1);
+    }
+    const Eigen::Matrix4d T = Eigen::umeyama(src, dst, false);
+    const Eigen::Vector3d fitted =
+        T.topLeftCorner<3, 3>() * in.poses[i].position + T.topRightCorner<3, 1>();
+    const Eigen::Vector2d dir2 = (g[i + 1].position - g[i - 1].position).head<2>().normalized();
+    const double v = speedAt(g, i);
+    const int band = v < kBands[1] ? 0 : v < kBands[2] ? 1 : 2;
+    dv[band].push_back(v - mean_speed);
+    along[band].push_back(dir2.dot((g[i].position - fitted).head<2>()));
+    dv_all.push_back(dv[band].back());
+    along_all.push_back(along[band].back());
   }
-  return errorStats(d).mae;
+  const Slope all = fitSlope(dv_all, along_all);
+  for (int b = 0; b < 3; ++b) {
+    const Slope s = fitSlope(dv[b], along[b]);
+    std::printf(
+        "a2rl GNSS ahead of the SLAM, speeds %.0f-%.0f m/s (%zu poses): %.3f s; residual along "
+        "the track %.3f -> %.3f m RMS\n",
+        kBands[b], std::min(kBands[b + 1], 99.0), dv[b].size(), s.slope, s.rms_before, s.rms_after);
+    EXPECT_NEAR(s.slope, 0.095, 0.015) << "band " << b;  // 0.088, 0.102, 0.097 s
+    if (b > 0) EXPECT_LT(s.rms_after, 0.7 * s.rms_before) << "band " << b;
+  }
+  const ClockOffsetEstimate speed = estimateClockOffset(in.poses, g, 1.0);
+  std::printf("  all poses: %.3f s; the speed profiles: %.4f s (1-sigma %.4f s)\n", all.slope,
+              speed.offset, speed.sigma);
+  EXPECT_TRUE(speed.observable);
+  EXPECT_NEAR(speed.offset, all.slope, 0.01);
+  EXPECT_LT(speed.sigma, 0.01);
 }
 
-/// Where the fused trajectory and the held-out fixes disagree by more than 0.4 m (outside the
-/// disputed stretch), it is along the track and near a stop (doc/ACCURACY.md); away from the
-/// stops the fused trajectory is within half the GNSS control points' sheet deviation, and the
-/// rubber-sheeted one a tenth below it.
-void checkStops(const DriveInput& all, const GeoreferenceResult& r, double gnss_cp_away) {
-  const std::vector<bool> near = nearStops(all.poses, 8);
-  std::vector<double> sheet_away, fused_away, sheet_near, fused_near;
-  for (std::size_t i = 5; i < all.poses.size(); i += 10) {
+/// The position of `track` at time t, linear between its poses; none outside its span.
+std::optional<Eigen::Vector3d> positionAt(const Trajectory& track, double t) {
+  const auto it = std::lower_bound(track.begin(), track.end(), t,
+                                   [](const Pose& p, double s) { return p.stamp < s; });
+  if (it == track.end() || (it == track.begin() && it->stamp != t)) return std::nullopt;
+  if (it->stamp == t) return it->position;
+  const Pose& a = *(it - 1);
+  const double f = (t - a.stamp) / (it->stamp - a.stamp);
+  return a.position + f * (it->position - a.position);
+}
+
+/// Deviations (m) of a trajectory (SLAM clock) from the held-out fixes (every 10th), each taken
+/// at the fix's own instant: the trajectory at SLAM time stamp + offset. Split into all of them,
+/// those outside the disputed stretch, and of those the ones within 8 poses of a stop and away.
+struct HeldOut {
+  std::vector<double> all, outside, near_stops, away;
+};
+
+HeldOut heldOut(const DriveInput& drive, const Trajectory& track, double offset) {
+  const std::vector<bool> near = nearStops(drive.poses, 8);
+  HeldOut h;
+  for (std::size_t i = 5; i < drive.local_gnss.size(); i += 10) {
+    const GnssPoint& fix = drive.local_gnss[i];
+    const auto at = positionAt(track, fix.stamp + offset);
+    if (!at) continue;
+    const double d = (*at - fix.position).norm();
+    h.all.push_back(d);
     if (i >= kDisputedBegin && i < kDisputedEnd) continue;
-    const Eigen::Vector3d d = r.fusion->poses[i].position - all.local_gnss[i].position;
-    const double sheet = (r.rubbersheet[i].position - all.local_gnss[i].position).norm();
-    (near[i] ? sheet_near : sheet_away).push_back(sheet);
-    (near[i] ? fused_near : fused_away).push_back(d.norm());
-    if (d.head<2>().norm() < 0.4) continue;
-    EXPECT_TRUE(near[i]) << "pose " << i << ": " << d.transpose();
-    EXPECT_GT(std::abs(alongTrack(r.fusion->poses, i, d)), 0.9 * d.head<2>().norm()) << i;
+    h.outside.push_back(d);
+    (near[i] ? h.near_stops : h.away).push_back(d);
   }
-  const ErrorStats sa = errorStats(sheet_away), fa = errorStats(fused_away);
-  const ErrorStats sn = errorStats(sheet_near), fn = errorStats(fused_near);
+  return h;
+}
+
+/// Prints the held-out figures of one run; returns those outside the disputed stretch.
+ErrorStats report(const char* what, const HeldOut& h) {
+  const ErrorStats a = errorStats(h.all), o = errorStats(h.outside);
+  const ErrorStats n = errorStats(h.near_stops), w = errorStats(h.away);
   std::printf(
-      "  held-out fixes away from stops (%zu): rubber-sheeted MAE %.3f MAX %.3f m, fused %.3f / "
-      "%.3f m, GNSS control points' sheet %.3f m; within 8 poses of a stop (%zu): rubber-sheeted "
-      "%.3f / %.3f m, fused %.3f / %.3f m\n",
-      sheet_away.size(), sa.mae, sa.max, fa.mae, fa.max, gnss_cp_away, sheet_near.size(), sn.mae,
-      sn.max, fn.mae, fn.max);
-  EXPECT_LT(fa.mae, gnss_cp_away / 2.0);
-  EXPECT_LT(fa.max, 0.5);
-  // The rubber-sheeted trajectory there: 0.126 / 0.414 m against the GNSS control points'
-  // sheet's 0.145 m MAE.
-  EXPECT_LT(sa.mae, 0.9 * gnss_cp_away);
-  EXPECT_LT(sa.max, 0.5);
+      "a2rl 200 control points, %s: held-out fixes MAE %.3f MAX %.3f m; outside poses %zu-%zu "
+      "MAE %.3f STD %.3f MAX %.3f m (within 8 poses of a stop %.3f / %.3f, away %.3f / %.3f)\n",
+      what, a.mae, a.max, kDisputedBegin, kDisputedEnd - 1, o.mae, o.std, o.max, n.mae, n.max,
+      w.mae, w.max);
+  return o;
 }
 
 /// Leave-out validation (no truth exists here): every 10th fix is held out of the run, and the
-/// rubber-sheeted trajectory is compared with it. Printed for doc/ACCURACY.md for the GNSS
-/// control points and for the fusion (defaults), which trusts the SLAM where the two disagree
-/// beyond the GNSS's estimated std-dev.
+/// rubber-sheeted trajectory is compared with it at the fix's own instant. The fusion (defaults)
+/// against the GNSS control points (the published method's way), with and without the clock
+/// offset.
 TEST(A2rl, LeaveOutDeviation) {
   const std::string dir = findData();
   if (dir.empty()) GTEST_SKIP() << "a2rl data not found (set FLEXCLOUD_A2RL_DIR); skipped";
@@ -195,72 +267,61 @@ TEST(A2rl, LeaveOutDeviation) {
   for (std::size_t i = 0; i < all.local_gnss.size(); ++i) {
     if (i % 10 != 5) in.local_gnss.push_back(all.local_gnss[i]);
   }
-  // The fusion with the defaults, which raise the SLAM noise where the GNSS's inliers say so
-  // (this SLAM drifts far more than the simulator's: doc/ACCURACY.md), and with the SLAM noise
-  // held as given.
-  double gnss_cp_mae = 0.0, gnss_cp_away = 0.0;
-  for (const int variant : {0, 1, 2}) {
-    const bool fusion = variant > 0;
-    Params p = forThisData(fusion);
-    if (variant == 2) p.max_slam_noise_scale = 1.0;
-    const GeoreferenceResult r = georeference(in, p);
-    std::vector<double> held, every, held_outside, fused_outside;
-    for (std::size_t i = 0; i < all.poses.size(); ++i) {
-      const double d = (r.rubbersheet[i].position - all.local_gnss[i].position).norm();
-      every.push_back(d);
-      if (i % 10 != 5) continue;
-      held.push_back(d);
-      if (i >= kDisputedBegin && i < kDisputedEnd) continue;
-      held_outside.push_back(d);
-      if (fusion) {
-        fused_outside.push_back((r.fusion->poses[i].position - all.local_gnss[i].position).norm());
-      }
-    }
-    const ErrorStats h = errorStats(held), e = errorStats(every), o = errorStats(held_outside);
-    std::printf(
-        "a2rl 200 control points, %s: held-out fixes MAE %.3f STD %.3f MAX %.3f m; all "
-        "poses MAE %.3f MAX %.3f m; held-out fixes outside poses %zu-%zu MAE %.3f STD %.3f "
-        "MAX %.3f m\n",
-        fusion ? (variant == 2 ? "fusion, SLAM noise as given" : "fusion (defaults)")
-               : "GNSS control points",
-        h.mae, h.std, h.max, e.mae, e.max, kDisputedBegin, kDisputedEnd - 1, o.mae, o.std, o.max);
-    EXPECT_EQ(held.size(), 239u);
-    EXPECT_LT(h.mae, fusion ? 1.0 : 0.3);
-    if (!fusion) {
-      gnss_cp_mae = o.mae;
-      gnss_cp_away = sheetAwayFromStops(all, r);
-      continue;
-    }
-    const ErrorStats ft = errorStats(fused_outside);
-    const FusionResult& f = *r.fusion;
-    std::printf(
-        "  fused trajectory at the held-out fixes outside poses %zu-%zu: MAE %.3f STD %.3f MAX "
-        "%.3f m\n  SLAM noise x%.1f, GNSS roughness bound %.4f m, %zu fixes used, SLAM "
-        "jitter (median) %.3f m horizontal %.3f m vertical, %zu poses moved to the fixes\n",
-        kDisputedBegin, kDisputedEnd - 1, ft.mae, ft.std, ft.max, f.slam_noise_scale,
-        f.gnss_roughness_h, f.used, f.slam_jitter_h, f.slam_jitter_v, f.detail_poses);
-    EXPECT_TRUE(std::isfinite(f.estimated_std_h));  // the file gives no std-devs
-    EXPECT_LT(f.gnss_roughness_h, 0.02);            // RTK: a centimetre at most
-    // This SLAM's z jitters from pose to pose (doc/ACCURACY.md): a tenth of a metre.
-    EXPECT_GT(f.slam_jitter_v, 0.05);
-    EXPECT_LT(f.slam_jitter_h, 0.02);
-    if (variant == 1) {
-      EXPECT_GT(f.slam_noise_scale, 3.0);
-      // The sheet fitted to the whole fused trajectory: 0.144 m (through the control points
-      // alone 0.177 m); the GNSS control points' sheet 0.148 m, the published method's era
-      // figure at 200 control points 0.153 m.
-      EXPECT_LT(o.mae, 0.153);
-      EXPECT_LT(o.mae, gnss_cp_mae);
-      EXPECT_LT(o.max, 0.95);  // 0.908 m, at a stop; through the control points 0.97 m
-      EXPECT_GT(f.used, 1800u);
-      // The fused trajectory: half the deviation of the GNSS control points' sheet.
-      EXPECT_LT(ft.mae, 0.6 * gnss_cp_mae);
-      checkStops(all, r, gnss_cp_away);
-    } else {
-      EXPECT_EQ(f.slam_noise_scale, 1.0);
-      EXPECT_GT(o.mae, 0.3);
-    }
-  }
+  const GeoreferenceResult r = georeference(in, forThisData(true));
+  const FusionResult& f = *r.fusion;
+  const double dt = f.time_offset;
+  const HeldOut h = heldOut(all, r.rubbersheet, dt);
+  const ErrorStats o = report("fusion (defaults)", h);
+  const HeldOut fused = heldOut(all, f.poses, dt);
+  const ErrorStats ft = report("fusion (defaults), the fused trajectory", fused);
+  std::printf(
+      "  clock offset %.4f s (speed profiles %.4f, 1-sigma %.4f), SLAM noise x%.2f, GNSS "
+      "roughness bound %.4f m, %zu fixes used, %zu outliers, SLAM jitter (median) %.3f m "
+      "horizontal %.3f m vertical, %zu poses moved to the fixes\n",
+      dt, f.time_offset_from_speed, f.time_offset_sigma, f.slam_noise_scale, f.gnss_roughness_h,
+      f.used, f.outliers, f.slam_jitter_h, f.slam_jitter_v, f.detail_poses);
+  EXPECT_GE(h.all.size(), 238u);  // of 239: the last lies past the poses' end
+  EXPECT_TRUE(f.time_offset_estimated);
+  EXPECT_NEAR(dt, 0.095, 0.015);
+  EXPECT_TRUE(std::isfinite(f.estimated_std_h));  // the file gives no std-devs
+  EXPECT_LT(f.gnss_roughness_h, 0.02);            // RTK: a centimetre at most
+  // The inliers stay further from the fused trajectory than their roughness allows: the SLAM
+  // noise is raised (x1.8).
+  EXPECT_GT(f.slam_noise_scale, 1.5);
+  // This SLAM's z jitters from pose to pose (doc/ACCURACY.md): a tenth of a metre.
+  EXPECT_GT(f.slam_jitter_v, 0.05);
+  EXPECT_LT(f.slam_jitter_h, 0.02);
+
+  // The published method's way: GNSS at the pose stamps as control points.
+  const GeoreferenceResult g = georeference(in, forThisData(false));
+  const ErrorStats go = report("GNSS control points", heldOut(all, g.rubbersheet, 0.0));
+  // The same with the fusion's offset given: the offset serves every method.
+  Params given = forThisData(false);
+  given.gnss_time_offset = dt;
+  const GeoreferenceResult gd = georeference(in, given);
+  const ErrorStats gdo =
+      report("GNSS control points, the clock offset given", heldOut(all, gd.rubbersheet, dt));
+  EXPECT_LT(gdo.mae, go.mae);
+  EXPECT_LT(gdo.max, go.max);
+
+  // The figures for this drive at 200 control points (MAE 0.153 m, MAX 0.658 m): the
+  // defaults keep them, and beat the published method's way (0.148 / 0.640 m) on both.
+  EXPECT_LT(o.mae, 0.153);  // 0.136 m
+  EXPECT_LT(o.max, 0.658);  // 0.626 m
+  EXPECT_LT(o.mae, go.mae);
+  EXPECT_LT(o.max, go.max);
+  EXPECT_LT(ft.mae, 0.1);  // 0.087 m
+  // The stops no longer stand out (without the offset the fusion's largest deviations, 0.9 m,
+  // lay within 8 poses of them).
+  EXPECT_LT(errorStats(h.near_stops).max, 0.5);  // 0.361 m
+
+  // The offset is what moved them: the fusion without it (max_time_offset 0).
+  Params fixed = forThisData(true);
+  fixed.max_time_offset = 0.0;
+  const GeoreferenceResult z = georeference(in, fixed);
+  const HeldOut zh = heldOut(all, z.rubbersheet, 0.0);
+  report("fusion, no clock offset", zh);
+  EXPECT_GT(errorStats(zh.near_stops).mae, 2.0 * errorStats(h.near_stops).mae);  // 0.43, 0.18
 }
 
 }  // namespace
