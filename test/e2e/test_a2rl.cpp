@@ -198,7 +198,9 @@ TEST(A2rl, TheSlamStampsLagTheGnssByATenthOfASecond) {
         "the track %.3f -> %.3f m RMS\n",
         kBands[b], std::min(kBands[b + 1], 99.0), dv[b].size(), s.slope, s.rms_before, s.rms_after);
     EXPECT_NEAR(s.slope, 0.095, 0.015) << "band " << b;  // 0.088, 0.102, 0.097 s
-    if (b > 0) EXPECT_LT(s.rms_after, 0.7 * s.rms_before) << "band " << b;
+    if (b > 0) {
+      EXPECT_LT(s.rms_after, 0.7 * s.rms_before) << "band " << b;
+    }
   }
   const ClockOffsetEstimate speed = estimateClockOffset(in.poses, g, 1.0);
   std::printf("  all poses: %.3f s; the speed profiles: %.4f s (1-sigma %.4f s)\n", all.slope,
