@@ -29,6 +29,8 @@ namespace fs = std::filesystem;
 /// A tile's index: floor(x / size), floor(y / size).
 using TileKey = std::pair<long long, long long>;
 constexpr TileKey kNoTile{std::numeric_limits<long long>::min(), 0};
+/// A tile index beyond this (a point some 10^16 m off) has no integer to name its tile.
+constexpr double kFarthestTile = 1e15;
 
 std::string number(double v) {
   std::ostringstream s;
@@ -69,9 +71,13 @@ class Tiler {
         const Eigen::Vector3d enu = layout_.get(p);
         if (!enu.allFinite()) continue;
         const Eigen::Vector3d q = projection_.fromEnu(enu);
+        const double tx = std::floor(q.x() / size), ty = std::floor(q.y() / size);
+        if (!(std::abs(tx) < kFarthestTile && std::abs(ty) < kFarthestTile)) {
+          throw Error(path_ + ": a point at (" + number(q.x()) + ", " + number(q.y()) +
+                      ") m lies beyond the reach of the tiles");
+        }
         layout_.set(p, q);
-        c.tiles[i] = {static_cast<long long>(std::floor(q.x() / size)),
-                      static_cast<long long>(std::floor(q.y() / size))};
+        c.tiles[i] = {static_cast<long long>(tx), static_cast<long long>(ty)};
       }
     });
     options_.cancel->check(path_ + ": Autoware tiles");
@@ -170,8 +176,8 @@ class Tiler {
       hi = {std::max(hi.first, t.first), std::max(hi.second, t.second)};
     }
     if (lo.first > hi.first) return;  // no finite point
-    const auto w = static_cast<double>(hi.first - lo.first) + 1.0;
-    const auto h = static_cast<double>(hi.second - lo.second) + 1.0;
+    const double w = static_cast<double>(hi.first) - static_cast<double>(lo.first) + 1.0;
+    const double h = static_cast<double>(hi.second) - static_cast<double>(lo.second) + 1.0;
     const bool grid = w * h <= static_cast<double>(kMaxCells);
     if (grid) cells_.assign(static_cast<std::size_t>(w * h), kNone);
     for (std::size_t i = 0; i < c.points; ++i) {

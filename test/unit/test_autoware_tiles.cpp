@@ -104,5 +104,22 @@ TEST(AutowareTiles, EveryFinitePointInOneTileWhateverTheChunks) {
   }
 }
 
+TEST(AutowareTiles, APointBeyondAnyTileIsAnErrorNamingTheMap) {
+  pcl::PCLPointCloud2 map = testMap(false);
+  const float far = 1e30f;
+  std::memcpy(map.data.data() + 16 * 17, &far, 4);
+  const fs::path dir = test::tempFolder("tiles_far");
+  const std::string pcd = (dir / "map.pcd").string();
+  writePcdBinary(pcd, map);
+  AutowareOptions o;
+  o.tile_size = kTile;
+  const std::string error = test::errorOf([&] {
+    writeAutowareMap(pcd, (dir / "out").string(), Datum{48.0, 11.0, 500.0}, o);
+  });
+  EXPECT_NE(error.find(pcd + ": a point at (1.00000001504747e+30"), std::string::npos) << error;
+  EXPECT_NE(error.find("beyond the reach of the tiles"), std::string::npos) << error;
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace flexcloud
