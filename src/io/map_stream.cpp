@@ -5,16 +5,15 @@
 #include <unistd.h>
 
 #include <array>
-#include <atomic>
 #include <cerrno>
 #include <chrono>
-#include <condition_variable>
 #include <cstring>
 #include <future>
-#include <mutex>
 #include <optional>
-#include <thread>
 
+#include "body_copy.h"
+#include "flexcloud/io/atomic_file.h"
+#include "flexcloud/io/map_precopy.h"
 #include "flexcloud/io/pcd_ascii.h"
 #include "flexcloud/io/pcd_compressed.h"
 #include "flexcloud/io/pcd_io.h"
@@ -190,125 +189,21 @@ class MapJob {
   ErrorAccumulator aligned_, warped_;
 };
 
-/// Copies `bytes` from in_fd at in_off to out_fd at out_off in the kernel (copy_file_range),
-/// or through a buffer where the filesystems cannot.
-void copyRange(int in_fd, off_t in_off, int out_fd, off_t out_off, std::size_t bytes,
-               const std::string& name) {
-  bool kernel = true;
-  std::vector<std::uint8_t> buf;
-  while (bytes > 0) {
-    ssize_t n = -1;
-    if (kernel) {
-      n = ::copy_file_range(in_fd, &in_off, out_fd, &out_off, bytes, 0);
-      if (n < 0 && (errno == EXDEV || errno == EINVAL || errno == ENOSYS || errno == EOPNOTSUPP)) {
-        kernel = false;
-        continue;
-      }
-    } else {
-      if (buf.empty()) buf.resize(std::size_t{1} << 22);
-      n = ::pread(in_fd, buf.data(), std::min(bytes, buf.size()), in_off);
-      if (n > 0) {
-        for (ssize_t done = 0; done < n;) {
-          const ssize_t w = ::pwrite(out_fd, buf.data() + done, static_cast<std::size_t>(n - done),
-                                     out_off + done);
-          if (w < 0 && errno == EINTR) continue;
-          if (w <= 0) throw Error(name + ": write failed: " + std::strerror(errno));
-          done += w;
-        }
-        in_off += n;
-        out_off += n;
-      }
-    }
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) {
-      throw Error(
-          name + ": copying the map failed" +
-          (n < 0 ? std::string(": ") + std::strerror(errno) : std::string(" (input cut short?)")));
-    }
-    bytes -= static_cast<std::size_t>(n);
-  }
-}
-
-/// Closes a file descriptor on scope exit unless released.
-struct FdGuard {
-  int fd;
-  ~FdGuard() {
-    if (fd >= 0) ::close(fd);
-  }
-  int release() {
-    const int f = fd;
-    fd = -1;
-    return f;
-  }
-};
-
-/// Copies the map's body into the output in the kernel, chunk by chunk, on its own thread,
-/// ahead of the warp; waitFor() blocks until a range has been copied.
-class BodyCopier {
- public:
-  BodyCopier(MapJob& job, int in_fd, int out_fd, std::size_t out_offset, const std::string& out)
-      : thread_([=, &job] { copyAll(job, in_fd, out_fd, out_offset, out); }) {}
-  ~BodyCopier() { stop(); }
-  BodyCopier(const BodyCopier&) = delete;
-  BodyCopier& operator=(const BodyCopier&) = delete;
-
-  /// Waits until points [0, points) are copied; rethrows a failure of the copy.
-  void waitFor(std::size_t points) {
-    std::unique_lock<std::mutex> lock(m_);
-    cv_.wait(lock, [&] { return copied_ >= points || error_; });
-    if (error_) std::rethrow_exception(error_);
-  }
-  /// Ends the copy thread; rethrows a failure of the copy.
-  void finish() {
-    stop();
-    if (error_) std::rethrow_exception(error_);
-  }
-
- private:
-  void copyAll(MapJob& job, int in_fd, int out_fd, std::size_t out_offset, const std::string& out) {
-    const PcdHeader& h = job.header();
-    const std::size_t step = h.point_step;
-    try {
-      for (std::size_t first = 0; first < h.points && !stop_; first += job.chunk()) {
-        const std::size_t n = std::min(job.chunk(), h.points - first);
-        const auto t0 = Clock::now();
-        copyRange(in_fd, static_cast<off_t>(h.data_offset + first * step), out_fd,
-                  static_cast<off_t>(out_offset + first * step), n * step, out);
-        job.info().read_seconds += since(t0);
-        std::lock_guard<std::mutex> lock(m_);
-        copied_ = first + n;
-        cv_.notify_all();
-      }
-    } catch (...) {
-      std::lock_guard<std::mutex> lock(m_);
-      error_ = std::current_exception();
-      cv_.notify_all();
-    }
-  }
-  void stop() {
-    stop_ = true;
-    if (thread_.joinable()) thread_.join();
-  }
-
-  std::mutex m_;
-  std::condition_variable cv_;
-  std::size_t copied_ = 0;  ///< points copied so far (guarded by m_)
-  std::exception_ptr error_;
-  std::atomic<bool> stop_{false};
-  std::thread thread_;  ///< last: starts once the members above exist
-};
-
-/// Opens the output's temporary file and reserves its whole size; -1 (nothing written) where
-/// the filesystem cannot reserve space: a mapped write could then die of SIGBUS on a full disk.
-int reserveOutput(const AtomicFile& file, const std::string& out, std::size_t bytes) {
-  FdGuard fd{::open(file.tempPath().c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0644)};
-  if (fd.fd < 0) throw Error(out + ": cannot open for writing: " + std::strerror(errno));
-  const int rc = ::posix_fallocate(fd.fd, 0, static_cast<off_t>(bytes));
-  if (rc == EOPNOTSUPP || rc == EINVAL || rc == ENOSYS) return -1;
-  if (rc != 0) {
-    throw Error(out + ": cannot reserve " + std::to_string(bytes) + " bytes: " + std::strerror(rc));
-  }
-  return fd.release();
+/// Opens the output's temporary file, reserves its whole size, writes the header and starts the
+/// body's copy; false (nothing written) where the filesystem cannot reserve space.
+bool startBody(MapJob& job, const std::string& in, const AtomicFile& file, const std::string& out,
+               const std::string& header, OutputBody& body) {
+  const PcdHeader& h = job.header();
+  body.out.fd = ::open(file.tempPath().c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (body.out.fd < 0) throw Error(out + ": cannot open for writing: " + std::strerror(errno));
+  if (!reserveSpace(body.out.fd, header.size() + h.points * h.point_step, out)) return false;
+  writeHeader(body.out.fd, header, out);
+  body.in.fd = ::open(in.c_str(), O_RDONLY | O_CLOEXEC);
+  if (body.in.fd < 0) throw Error(in + ": cannot open: " + std::strerror(errno));
+  body.copier =
+      std::make_unique<BodyCopier>(BodyRange{body.in.fd, body.out.fd, h.data_offset, header.size(),
+                                             h.points, h.point_step, job.chunk(), out});
+  return true;
 }
 
 /// Warps points [first, first + n) of the output file in place through a memory map that is
@@ -330,31 +225,28 @@ void warpMapped(MapJob& job, int fd, std::size_t offset, std::size_t first, std:
 }
 
 /// The fast way: reserve the output, copy the body in the kernel (a copier thread runs ahead
-/// chunk by chunk) and warp it in place chunk by chunk through memory maps. Returns false,
-/// having written nothing, where the filesystem cannot reserve space.
-bool warpInPlace(MapJob& job, const std::string& in, const std::string& out) {
+/// chunk by chunk; started at the run's start where `precopy` holds this map) and warp it in
+/// place chunk by chunk through memory maps. Returns false, having written nothing, where the
+/// filesystem cannot reserve space.
+bool warpInPlace(MapJob& job, const std::string& in, const std::string& out, MapPrecopy* precopy) {
   const PcdHeader& h = job.header();
   const std::string text =
       binaryPcdHeader(job.fields(), h.point_step, static_cast<std::uint32_t>(h.width),
                       static_cast<std::uint32_t>(h.height));
   AtomicFile file(out);
-  FdGuard fd{reserveOutput(file, out, text.size() + h.points * h.point_step)};
-  if (fd.fd < 0) return false;
-  if (::pwrite(fd.fd, text.data(), text.size(), 0) != static_cast<ssize_t>(text.size())) {
-    throw Error(out + ": write failed: " + std::strerror(errno));
-  }
-  FdGuard in_fd{::open(in.c_str(), O_RDONLY | O_CLOEXEC)};
-  if (in_fd.fd < 0) throw Error(in + ": cannot open: " + std::strerror(errno));
-  BodyCopier copier(job, in_fd.fd, fd.fd, text.size(), out);
+  OutputBody body;
+  const bool taken = precopy != nullptr && precopy->takeAs(in, file.tempPath(), body);
+  if (!taken && !startBody(job, in, file, out, text, body)) return false;
   job.prepare();  // builds the location grid while the copier runs
   for (std::size_t first = 0; first < h.points; first += job.chunk()) {
     const std::size_t n = std::min(job.chunk(), h.points - first);
-    copier.waitFor(first + n);
-    warpMapped(job, fd.fd, text.size() + first * h.point_step, first, n, out);
+    body.copier->waitFor(first + n);
+    warpMapped(job, body.out.fd, text.size() + first * h.point_step, first, n, out);
   }
-  copier.finish();
+  job.info().read_seconds += body.copier->finish();
   const auto t0 = Clock::now();
-  if (::close(fd.release()) != 0) throw Error(out + ": write failed: " + std::strerror(errno));
+  if (::close(body.out.release()) != 0)
+    throw Error(out + ": write failed: " + std::strerror(errno));
   file.commit();
   job.info().write_seconds += since(t0);
   return true;
@@ -407,7 +299,9 @@ void warpPcdFile(const std::string& in, const std::string& out, const RubberShee
                  const MapStreamOptions& options, MapInfo& info) {
   MapJob job(in, sheet, options, info);
   const bool binary = job.header().data == PcdHeader::Data::kBinary;
-  if (!options.in_place || !binary || !warpInPlace(job, in, out)) warpPipeline(job, out);
+  if (!options.in_place || !binary || !warpInPlace(job, in, out, options.precopy)) {
+    warpPipeline(job, out);
+  }
   job.finish();
 }
 

@@ -15,6 +15,7 @@
 #include "flexcloud/frame_convert.h"
 #include "flexcloud/io/atomic_file.h"
 #include "flexcloud/io/config.h"
+#include "flexcloud/io/map_precopy.h"
 #include "flexcloud/io/map_stream.h"
 #include "flexcloud/io/memory.h"
 #include "flexcloud/io/outputs.h"
@@ -268,14 +269,15 @@ bool checkMap(const Options& o, MapInfo& info) {
 
 /// The writer that streams a map (any encoding) through the warp into the output.
 MapWriter streamedMap(const Options& o, const Params& params, const GeoreferenceResult& r,
-                      const Progress& log, MapInfo& info) {
-  return [&o, &params, &r, &log, &info](const std::string& path) {
+                      const Progress& log, MapInfo& info, MapPrecopy* precopy) {
+  return [&o, &params, &r, &log, &info, precopy](const std::string& path) {
     log.say("warping " + o.map + " (streamed)");
     MapStreamOptions so;
     so.threads = params.threads;
     so.truth = o.truth;
     so.T_enu_map = r.T_enu_map;
     so.cancel = &g_interrupt;
+    so.precopy = precopy;
     warpPcdFile(o.map, path, *r.sheet, so, info);
   };
 }
@@ -290,6 +292,8 @@ int run(int argc, char** argv) {
   MapInfo info;
   const bool has_map = checkMap(o, info);
   checkCancel();
+  // A binary map's body starts on its way into the output now, beside the georeferencing.
+  const std::unique_ptr<MapPrecopy> precopy = has_map ? MapPrecopy::start(o.map, o.out) : nullptr;
 
   std::vector<Eigen::Vector3d> to_ll;
   if (!o.to_ll.empty()) to_ll = readPointsFile(o.to_ll);
@@ -299,7 +303,8 @@ int run(int argc, char** argv) {
   if (!o.to_ll.empty() && !r.datum) throw Error("--to-ll: the GNSS came without a datum");
   checkCancel();
 
-  const MapWriter write_map = has_map ? streamedMap(o, params, r, log, info) : MapWriter();
+  const MapWriter write_map =
+      has_map ? streamedMap(o, params, r, log, info, precopy.get()) : MapWriter();
   checkCancel();
   log.say("writing " + o.out);
   context.map = has_map ? &info : nullptr;

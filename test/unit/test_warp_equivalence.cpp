@@ -5,10 +5,14 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <random>
 
+#include "body_copy.h"
 #include "flexcloud/cloud_warp.h"
 #include "flexcloud/georeference.h"
+#include "flexcloud/io/map_precopy.h"
 #include "flexcloud/io/map_stream.h"
 #include "flexcloud/io/pcd_io.h"
 #include "flexcloud/sim/sim_cloud.h"
@@ -160,6 +164,56 @@ TEST(WarpEquivalence, StreamedFileEqualsTheInMemoryWarp) {
     EXPECT_TRUE(info.has_truth);
     EXPECT_GT(info.truth_aligned.rmse, 1.0);
   }
+  fs::remove_all(dir);
+}
+
+/// The files of a folder, by name.
+std::vector<std::string> filesIn(const std::string& dir) {
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+std::string bytesOf(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), {});
+}
+
+/// The tool starts a binary map's copy before the sheet exists: taken over by the warp, the
+/// output is the same file byte for byte; a copy of another map is not taken; a copy not taken
+/// leaves no file behind.
+TEST(WarpEquivalence, APrecopiedBodyGivesTheSameFileAndLeavesNothingWhenNotTaken) {
+  const Case c = makeCase(200, 100000);
+  const std::string dir = test::tempFolder("precopy").string();
+  writePcdBinary(dir + "/map.pcd", sim::slamCloud(c.drive.map));
+  fs::copy_file(dir + "/map.pcd", dir + "/other.pcd");
+  MapStreamOptions o;
+  o.chunk_points = 30001;
+  MapInfo info;
+  warpPcdFile(dir + "/map.pcd", dir + "/plain.pcd", *c.result.sheet, o, info);
+  const auto before = filesIn(dir);
+  {
+    const auto unused = MapPrecopy::start(dir + "/map.pcd", dir + "/out");
+    ASSERT_NE(unused, nullptr);
+  }
+  EXPECT_EQ(filesIn(dir), before) << "a copy not taken left a file";
+  for (const char* copied : {"/map.pcd", "/other.pcd"}) {
+    const auto precopy = MapPrecopy::start(dir + copied, dir + "/out");
+    ASSERT_NE(precopy, nullptr);
+    fs::create_directories(dir + "/out");
+    o.precopy = precopy.get();
+    MapInfo again;
+    warpPcdFile(dir + "/map.pcd", dir + "/out/warped.pcd", *c.result.sheet, o, again);
+    EXPECT_EQ(again.warp.points, 100000u);
+    EXPECT_EQ(bytesOf(dir + "/out/warped.pcd"), bytesOf(dir + "/plain.pcd")) << copied;
+    OutputBody body;
+    const bool taken_before = !precopy->takeAs(dir + copied, dir + "/out/again.pcd", body);
+    EXPECT_EQ(taken_before, std::string(copied) == "/map.pcd") << copied;
+    fs::remove(dir + "/out/again.pcd");
+    fs::remove(dir + "/out/warped.pcd");
+  }
+  EXPECT_TRUE(fs::is_empty(dir + "/out"));
   fs::remove_all(dir);
 }
 

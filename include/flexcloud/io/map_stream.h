@@ -11,6 +11,8 @@
 
 namespace flexcloud {
 
+class MapPrecopy;
+
 struct MapStreamOptions {
   int threads = 0;  ///< warp threads; 0: all cores
   std::size_t chunk_points = 1 << 20;
@@ -19,6 +21,8 @@ struct MapStreamOptions {
   /// Copy in the kernel and warp in place through memory maps where the filesystem can reserve
   /// the space; false: always read, warp and write through buffers.
   bool in_place = true;
+  /// The body's copy started at the run's start (taken over when it holds this map), or null.
+  MapPrecopy* precopy = nullptr;
   /// Stops the warp (with Error) once cancelled; the output file is then not created.
   const CancelToken* cancel = &neverCancelled();
 };

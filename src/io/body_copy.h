@@ -1,0 +1,78 @@
+#pragma once
+// Copying a binary map's body into its output in the kernel, on a thread of its own, ahead of
+// the warp that works on the output in place. Private to the io library.
+
+#include <atomic>
+#include <condition_variable>
+#include <cstddef>
+#include <exception>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+
+namespace flexcloud {
+
+/// Closes a file descriptor on scope exit unless released.
+struct FdGuard {
+  int fd = -1;
+  FdGuard() = default;
+  explicit FdGuard(int f) : fd(f) {}
+  FdGuard(const FdGuard&) = delete;
+  FdGuard& operator=(const FdGuard&) = delete;
+  ~FdGuard();
+  int release();
+};
+
+/// Where a body lies and goes: `points` records of `step` bytes from in_offset of in_fd to
+/// out_offset of out_fd, copied `chunk` points at a time. `name` names the output in errors.
+struct BodyRange {
+  int in_fd = -1, out_fd = -1;
+  std::size_t in_offset = 0, out_offset = 0;
+  std::size_t points = 0, step = 0, chunk = std::size_t{1} << 20;
+  std::string name;
+};
+
+/// Copies a body chunk by chunk on its own thread; waitFor() blocks until a range is copied.
+/// Destroyed early, it stops after the chunk in hand.
+class BodyCopier {
+ public:
+  explicit BodyCopier(BodyRange range);
+  ~BodyCopier();
+  BodyCopier(const BodyCopier&) = delete;
+  BodyCopier& operator=(const BodyCopier&) = delete;
+
+  /// Waits until points [0, points) are copied; rethrows a failure of the copy.
+  void waitFor(std::size_t points);
+  /// Ends the copy thread; rethrows a failure of the copy. Returns the copy's seconds.
+  double finish();
+
+ private:
+  void copyAll();
+  void stop();
+
+  BodyRange range_;
+  std::mutex m_;
+  std::condition_variable cv_;
+  std::size_t copied_ = 0;  ///< points copied so far (guarded by m_)
+  double seconds_ = 0.0;    ///< written by the copy thread, read after it ended
+  std::exception_ptr error_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;  ///< last: starts once the members above exist
+};
+
+/// An output file being filled: its descriptor, the map's, and the copier between them
+/// (destroyed first: it stops before the files close).
+struct OutputBody {
+  FdGuard out, in;
+  std::unique_ptr<BodyCopier> copier;
+};
+
+/// Reserves `bytes` for the file open at fd; false where the filesystem cannot (a mapped write
+/// could then die of SIGBUS on a full disk). Throws Error naming `name` for another failure.
+bool reserveSpace(int fd, std::size_t bytes, const std::string& name);
+
+/// Writes all of `text` at offset 0; throws Error naming `name`.
+void writeHeader(int fd, const std::string& text, const std::string& name);
+
+}  // namespace flexcloud
