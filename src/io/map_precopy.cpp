@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <exception>
 #include <filesystem>
 
 #include "body_copy.h"
@@ -53,7 +54,7 @@ std::unique_ptr<MapPrecopy> MapPrecopy::start(const std::string& in, const std::
                                                       h.points, h.point_step, std::size_t{1} << 20,
                                                       out_dir});
     return p;
-  } catch (const Error&) {
+  } catch (const std::exception&) {
     return nullptr;  // the warp meets the same problem and reports it
   }
 }
