@@ -3,6 +3,7 @@
 // pipeline input, map error against the simulator's truth, and the message of a failing call.
 
 #include <gtest/gtest.h>
+#include <pcl/common/io.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -10,6 +11,8 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "flexcloud/cloud_warp.h"
 #include "flexcloud/georeference.h"
@@ -31,6 +34,30 @@ inline std::filesystem::path tempFolder(const std::string& name) {
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;
+}
+
+/// A cloud of width x height zeroed points whose fields (name, PCL datatype) lie one after the
+/// other in each point.
+inline pcl::PCLPointCloud2 packedCloud(
+    const std::vector<std::pair<std::string, std::uint8_t>>& fields, std::uint32_t width,
+    std::uint32_t height = 1) {
+  pcl::PCLPointCloud2 c;
+  std::uint32_t offset = 0;
+  for (const auto& [name, type] : fields) {
+    pcl::PCLPointField f;
+    f.name = name;
+    f.offset = offset;
+    f.datatype = type;
+    f.count = 1;
+    c.fields.push_back(f);
+    offset += static_cast<std::uint32_t>(pcl::getFieldSize(type));
+  }
+  c.point_step = offset;
+  c.width = width;
+  c.height = height;
+  c.row_step = offset * width;
+  c.data.assign(static_cast<std::size_t>(c.row_step) * height, 0);
+  return c;
 }
 
 /// The message of the flexcloud::Error that f() throws, or "" when it does not throw.

@@ -34,21 +34,10 @@ pcl::PCLPointCloud2 testMap(bool stray) {
   pts.push_back({std::numeric_limits<float>::quiet_NaN(), 1.0f, 1.0f, 0.0f});
   if (stray) pts.push_back({100000.0f, 100000.0f, 3.0f, 0.0f});
   std::shuffle(pts.begin(), pts.end(), rng);
-  pcl::PCLPointCloud2 c;
-  const char* names[4] = {"x", "y", "z", "intensity"};
-  for (std::uint32_t f = 0; f < 4; ++f) {
-    pcl::PCLPointField field;
-    field.name = names[f];
-    field.offset = 4 * f;
-    field.datatype = pcl::PCLPointField::FLOAT32;
-    field.count = 1;
-    c.fields.push_back(field);
-  }
-  c.point_step = 16;
-  c.width = static_cast<std::uint32_t>(pts.size());
-  c.height = 1;
-  c.row_step = c.point_step * c.width;
-  c.data.resize(c.row_step);
+  using F = pcl::PCLPointField;
+  pcl::PCLPointCloud2 c = test::packedCloud(
+      {{"x", F::FLOAT32}, {"y", F::FLOAT32}, {"z", F::FLOAT32}, {"intensity", F::FLOAT32}},
+      static_cast<std::uint32_t>(pts.size()));
   for (std::size_t i = 0; i < pts.size(); ++i) {
     pts[i][3] = static_cast<float>(i);
     std::memcpy(c.data.data() + 16 * i, pts[i].data(), 16);

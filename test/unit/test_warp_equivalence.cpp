@@ -39,22 +39,12 @@ Case makeCase(int control_points, std::size_t map_points) {
   return c;
 }
 
-/// A float64 cloud of the given map-frame points (x y z, then a tag field).
+/// A float64 cloud of the given map-frame points (x y z).
 pcl::PCLPointCloud2 doubleCloud(const std::vector<Eigen::Vector3d>& pts) {
-  pcl::PCLPointCloud2 c;
-  for (int a = 0; a < 3; ++a) {
-    pcl::PCLPointField f;
-    f.name = std::string(1, "xyz"[a]);
-    f.offset = 8 * a;
-    f.datatype = pcl::PCLPointField::FLOAT64;
-    f.count = 1;
-    c.fields.push_back(f);
-  }
-  c.point_step = 24;
-  c.width = static_cast<std::uint32_t>(pts.size());
-  c.height = 1;
-  c.row_step = c.point_step * c.width;
-  c.data.resize(c.row_step);
+  using F = pcl::PCLPointField;
+  pcl::PCLPointCloud2 c =
+      test::packedCloud({{"x", F::FLOAT64}, {"y", F::FLOAT64}, {"z", F::FLOAT64}},
+                        static_cast<std::uint32_t>(pts.size()));
   const XyzLayout l = XyzLayout::of(c, "probe");
   for (std::size_t i = 0; i < pts.size(); ++i) l.set(c.data.data() + i * 24, pts[i]);
   return c;
