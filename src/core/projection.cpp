@@ -91,7 +91,13 @@ Eigen::Vector3d MapProjection::utmOf(const Datum& g) const {
   int zone = 0;
   bool north = true;
   double x = 0.0, y = 0.0;
-  GeographicLib::UTMUPS::Forward(g.lat, g.lon, zone, north, x, y, zone_.zone);
+  try {
+    GeographicLib::UTMUPS::Forward(g.lat, g.lon, zone, north, x, y, zone_.zone);
+  } catch (const GeographicLib::GeographicErr& e) {
+    throw Error("a point at latitude " + std::to_string(g.lat) + ", longitude " +
+                std::to_string(g.lon) + " lies beyond the reach of UTM zone " +
+                std::to_string(zone_.zone) + " (" + e.what() + ")");
+  }
   // A point across the equator from the datum keeps the datum's hemisphere convention.
   if (north != zone_.north) y += zone_.north ? -10000000.0 : 10000000.0;
   return {x, y, g.alt};

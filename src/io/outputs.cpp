@@ -167,6 +167,22 @@ void writeRunFiles(Staging& stage, const GeoreferenceResult& r, const RunContext
 }
 
 /// autoware/ and the LAS, made from the staged map.
+/// Runs an export of the staged map; its errors name the input map (the staging folder they
+/// would name is gone once the run fails).
+template <typename F>
+auto asInputMap(const std::string& staged, const RunContext& run, F&& f) {
+  try {
+    return f();
+  } catch (const Error& error) {
+    const std::string input = run.map->input + " (warped)";
+    std::string m = error.what();
+    const auto at = m.find(staged);
+    if (at == std::string::npos) throw Error(input + ": " + m);
+    m.replace(at, staged.size(), input);
+    throw Error(m);
+  }
+}
+
 void writeMapExports(Staging& stage, const GeoreferenceResult& r, const Params& params,
                      const RunContext& run, ExportSummary& e) {
   if (!params.autoware && !params.las) return;
@@ -181,11 +197,13 @@ void writeMapExports(Staging& stage, const GeoreferenceResult& r, const Params& 
     o.projector = parseProjector(params.projector);
     o.threads = params.threads;
     o.cancel = run.cancel;
-    e.autoware = writeAutowareMap(map, stage.path("autoware"), *r.datum, o);
+    const std::string dir = stage.path("autoware");
+    e.autoware = asInputMap(map, run, [&] { return writeAutowareMap(map, dir, *r.datum, o); });
   }
   if (params.las) {
-    e.las =
-        writeLas(map, stage.path("map_georeferenced.las"), *r.datum, params.threads, *run.cancel);
+    const std::string las = stage.path("map_georeferenced.las");
+    e.las = asInputMap(map, run,
+                       [&] { return writeLas(map, las, *r.datum, params.threads, *run.cancel); });
   }
 }
 

@@ -302,10 +302,27 @@ class Outputs(unittest.TestCase):
         self.assertLess(np.abs(rows[:, 4] - lon).max(), 1.5e-8)
         self.assertLess(np.abs(rows[:, 5] - h).max(), 1e-3)
 
+    def far_map(self):
+        """The drive's map with one point 10^30 m east: beyond any tile, UTM zone or LAS offset."""
+        raw = bytearray((self.drive / "map.pcd").read_bytes())
+        start = raw.index(b"DATA binary\n") + len(b"DATA binary\n")
+        header = dict(l.split(maxsplit=1) for l in raw[:start].decode().splitlines()
+                      if l and not l.startswith("#"))
+        step = sum(int(s) * int(c) for s, c in zip(header["SIZE"].split(),
+                                                    header["COUNT"].split()))
+        raw[start + 5 * step:start + 5 * step + 4] = np.float32(1e30).tobytes()
+        path = self.tmp / "far.pcd"
+        path.write_bytes(bytes(raw))
+        return path
+
     def test_bad_values_are_one_line_and_leave_no_folder(self):
+        far = self.far_map()
         cases = [(["--autoware", "--tile-size", "0"], "tile_size"),
                  (["--autoware", "--projector", "utm"], "projector"),
-                 (["--las", "--datum", "85", "11", "0"], "80 S to 84 N")]
+                 (["--las", "--datum", "85", "11", "0"], "80 S to 84 N"),
+                 (["--map", far, "--autoware"], "far.pcd (warped): a point at"),
+                 (["--map", far, "--autoware", "--projector", "mgrs"], "beyond the reach of UTM"),
+                 (["--map", far, "--las"], "far.pcd (warped): a point at latitude")]
         for args, word in cases:
             out = self.tmp / "bad"
             shutil.rmtree(out, ignore_errors=True)
