@@ -99,7 +99,8 @@ RubberSheet::RubberSheet(const std::vector<Eigen::Vector3d>& source,
     hi = hi.cwiseMax(source_to_input * src);
   }
   input_box_ = Eigen::AlignedBox3d(lo, hi);
-  locator_ = std::make_unique<TetLocator>(geometry_, source_, input_to_source, lo, hi);
+  locator_ =
+      std::make_unique<TetLocator>(geometry_, tet_vertices_, source_, input_to_source, lo, hi);
 }
 
 void RubberSheet::buildTets(const Eigen::Isometry3d& input_to_source) {
@@ -122,7 +123,6 @@ void RubberSheet::buildTets(const Eigen::Isometry3d& input_to_source) {
       const auto nb = c->neighbor(i);
       tet.neighbour[i] = dt.is_infinite(nb) ? -1 : nb->info();
     }
-    tet.vertex = v;
     const auto& s = source_;
     const auto& d = target_;
     Eigen::Matrix3d edges;

@@ -64,13 +64,14 @@ Rows poseRows(const RubberSheet& sheet, const std::vector<int>& groups, const Tr
     if (loc.outside) continue;
     hint = loc.tet;
     const LocatorTet& t = tets[static_cast<std::size_t>(loc.tet)];
+    const std::array<int, 4>& vertices = sheet.tetrahedra()[static_cast<std::size_t>(loc.tet)];
     const Eigen::Vector3d l = t.bary * (x - t.v0);
     const double lambda[4] = {1.0 - l.sum(), l.x(), l.y(), l.z()};
     const Eigen::Vector3d image = RubberSheet::apply(sheet.affineAt(loc), x);
     Eigen::Vector3d again = Eigen::Vector3d::Zero();
     std::map<int, double> weight;
     for (int c = 0; c < 4; ++c) {
-      const auto v = static_cast<std::size_t>(t.vertex[static_cast<std::size_t>(c)]);
+      const auto v = static_cast<std::size_t>(vertices[static_cast<std::size_t>(c)]);
       again += lambda[c] * sheet.targets()[v];
       if (groups[v] >= 0) weight[groups[v]] += lambda[c];
     }

@@ -20,10 +20,16 @@ constexpr double kFullEnough = 0.8;  // stop refining a block once this share is
 }  // namespace
 
 TetLocator::TetLocator(const std::vector<LocatorTet>& tets,
+                       const std::vector<std::array<int, 4>>& vertices,
                        const std::vector<Eigen::Vector3d>& sources,
                        const Eigen::Isometry3d& input_to_source, const Eigen::Vector3d& lo,
                        const Eigen::Vector3d& hi)
-    : tets_(tets), sources_(sources), input_to_source_(input_to_source), lo_(lo), hi_(hi) {}
+    : tets_(tets),
+      vertices_(vertices),
+      sources_(sources),
+      input_to_source_(input_to_source),
+      lo_(lo),
+      hi_(hi) {}
 
 int TetLocator::exit(int tet, const Eigen::Vector3d& p) const {
   const LocatorTet& t = tets_[static_cast<std::size_t>(tet)];
@@ -38,15 +44,16 @@ int TetLocator::exit(int tet, const Eigen::Vector3d& p) const {
   }
   if (lowest >= t.tolerance) return -1;     // inside beyond doubt
   if (lowest < -t.tolerance) return worst;  // outside beyond doubt
-  return exactExit(t, p);
+  return exactExit(tet, p);
 }
 
-int TetLocator::exactExit(const LocatorTet& t, const Eigen::Vector3d& p) const {
+int TetLocator::exactExit(int tet, const Eigen::Vector3d& p) const {
   using K = CGAL::Exact_predicates_inexact_constructions_kernel;
   const Eigen::Vector3d q = input_to_source_ * p;  // as CGAL's own location sees the point
   std::array<K::Point_3, 4> v;
   for (int i = 0; i < 4; ++i) {
-    const Eigen::Vector3d& s = sources_[static_cast<std::size_t>(t.vertex[i])];
+    const Eigen::Vector3d& s =
+        sources_[static_cast<std::size_t>(vertices_[static_cast<std::size_t>(tet)][i])];
     v[i] = K::Point_3(s.x(), s.y(), s.z());
   }
   for (int i = 0; i < 4; ++i) {

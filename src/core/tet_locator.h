@@ -15,17 +15,19 @@
 
 namespace flexcloud {
 
-/// What the walk needs of a tetrahedron.
-struct LocatorTet {
+/// What the walk needs of a tetrahedron, in two cache lines of its own (the vertices, needed
+/// only by the exact test, are kept apart): a test of a guess and a walk's step read 2 lines
+/// per tetrahedron, where 136 bytes at any offset read 3 or 4.
+struct alignas(64) LocatorTet {
   Eigen::Matrix3d bary;  ///< inverse of [v1-v0 v2-v0 v3-v0], input frame: barycentric coordinates
   Eigen::Vector3d v0;    ///< input frame
-  std::array<int, 4> neighbour;  ///< across the face opposite vertex i; -1 beyond the hull
-  std::array<int, 4> vertex;     ///< source indices, positively oriented (CGAL's order)
   /// Bound of the rounding error of the barycentric coordinates. Beyond it their sign is
   /// certain; within it (a point on a face, or a needle-shaped tetrahedron) exact orientation
   /// predicates on the source coordinates decide, as CGAL's own location does.
   double tolerance = 0.0;
+  std::array<int, 4> neighbour;  ///< across the face opposite vertex i; -1 beyond the hull
 };
+static_assert(sizeof(LocatorTet) == 128, "a LocatorTet fills two cache lines");
 
 /// Whether p lies inside the tetrahedron beyond the rounding error: the cheap first test of a
 /// guess, without the face to leave by. false also for a point on or near a face, which the
@@ -42,11 +44,12 @@ class TetLocator {
     bool outside = false;  ///< beyond the hull; tet is the hull tetrahedron the walk left by
   };
 
-  /// `tets` and `sources` (the vertices, source frame) must outlive the locator; input points
-  /// map to the source frame by input_to_source; lo/hi (input frame) bound every vertex.
-  TetLocator(const std::vector<LocatorTet>& tets, const std::vector<Eigen::Vector3d>& sources,
-             const Eigen::Isometry3d& input_to_source, const Eigen::Vector3d& lo,
-             const Eigen::Vector3d& hi);
+  /// `tets`, their `vertices` (source indices, positively oriented: CGAL's order) and `sources`
+  /// (the vertices, source frame) must outlive the locator; input points map to the source
+  /// frame by input_to_source; lo/hi (input frame) bound every vertex.
+  TetLocator(const std::vector<LocatorTet>& tets, const std::vector<std::array<int, 4>>& vertices,
+             const std::vector<Eigen::Vector3d>& sources, const Eigen::Isometry3d& input_to_source,
+             const Eigen::Vector3d& lo, const Eigen::Vector3d& hi);
 
   /// Builds the grid (on `threads` threads); until then locate() walks from tetrahedron 0.
   /// `sample` (optional) are points like those that will be located: mixed cells that hold
@@ -99,9 +102,10 @@ class TetLocator {
   SubBlock subdivide(int x, int y, int z, int s, int hint, double* full_fraction) const;
   /// -1 when p lies in the tetrahedron, else a face (opposite vertex i) p lies beyond.
   int exit(int tet, const Eigen::Vector3d& p) const;
-  int exactExit(const LocatorTet& t, const Eigen::Vector3d& p) const;
+  int exactExit(int tet, const Eigen::Vector3d& p) const;
 
   const std::vector<LocatorTet>& tets_;
+  const std::vector<std::array<int, 4>>& vertices_;
   const std::vector<Eigen::Vector3d>& sources_;
   Eigen::Isometry3d input_to_source_;
   Eigen::Vector3d lo_, hi_;
