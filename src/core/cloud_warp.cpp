@@ -138,12 +138,16 @@ class CellKeys {
                   std::max(1e-3, (box.max() - box.min()).maxCoeff())) {}
 
   std::uint64_t operator()(const Eigen::Vector3d& p) const {
-    return spreadBits(quantize(p.x(), origin_.x())) |
-           (spreadBits(quantize(p.y(), origin_.y())) << 1) |
-           (spreadBits(quantize(p.z(), origin_.z())) << 2);
+    return spread(quantize(p.x(), origin_.x())) | (spread(quantize(p.y(), origin_.y())) << 1) |
+           (spread(quantize(p.z(), origin_.z())) << 2);
   }
 
  private:
+  /// spreadBits of a 12-bit value from a table of the spread bytes.
+  std::uint64_t spread(std::uint32_t v) const {
+    return spread_[v & 0xFF] | (std::uint64_t{spread_[v >> 8]} << 24);
+  }
+
   std::uint32_t quantize(double v, double origin) const {
     const double c = std::clamp((v - origin) * inv_cell_, 0.0, (1 << kBits) - 1.0);
     return static_cast<std::uint32_t>(c);
@@ -151,52 +155,74 @@ class CellKeys {
 
   Eigen::Vector3d origin_;
   double inv_cell_;
+  std::array<std::uint32_t, 256> spread_ = [] {
+    std::array<std::uint32_t, 256> t{};
+    for (std::uint32_t i = 0; i < 256; ++i) t[i] = static_cast<std::uint32_t>(spreadBits(i));
+    return t;
+  }();
 };
 
 /// A block's sort entries: key << kIndexBits | the point's index in its block. Blocks of 2^19
 /// points: the more points a block holds, the closer together they lie once sorted, until the
 /// block outgrows the caches (10 M shuffled points of a 5 km drive, 2000 control points: blocks
-/// of 2^18 38 M/s, 2^19 42 M/s, 2^20 37 M/s).
+/// of 2^18 38 M/s, 2^19 42 M/s, 2^20 37 M/s; with the sort below, 2^19 45 M/s, 2^20 38-45 M/s,
+/// 2^21 39-42 M/s).
 constexpr int kIndexBits = 19;
 constexpr std::uint64_t kIndexMask = (std::uint64_t{1} << kIndexBits) - 1;
 
-/// How many of a block's keys hold each value of each 12-bit digit, counted as the keys are
-/// made: the sort then needs no counting pass of its own.
-class DigitCounts {
+/// Sorts a block's entries (key << kIndexBits | index) by their 36-bit key. One pass by the top
+/// 12 bits (their counts made beside the keys) splits the block into coarse cells; each cell's
+/// entries, few enough to stay in the core's cache, are then sorted by the lower 24 bits.
+class KeySorter {
  public:
   static constexpr int kDigit = CellKeys::kBits;
-  static constexpr int kDigits = 3;
   static constexpr std::size_t kBuckets = std::size_t{1} << kDigit;
 
-  void clear() {
-    for (auto& c : count_) c.fill(0);
-  }
-  void add(std::uint64_t key) {
-    for (int d = 0; d < kDigits; ++d) ++count_[d][(key >> (d * kDigit)) & (kBuckets - 1)];
-  }
-  /// Turns the counts of digit d into the first slot of each value.
-  std::array<std::uint32_t, kBuckets>& starts(int d) {
-    std::uint32_t sum = 0;
-    for (auto& c : count_[d]) sum += std::exchange(c, sum);
-    return count_[d];
+  void clear() { top_.fill(0); }
+  void add(std::uint64_t key) { ++top_[key >> (2 * kDigit)]; }
+
+  /// Sorts v; tmp is scratch space.
+  void sort(std::vector<std::uint64_t>& v, std::vector<std::uint64_t>& tmp) {
+    tmp.resize(v.size());
+    std::array<std::uint32_t, kBuckets + 1> start{};
+    for (std::size_t d = 0; d < kBuckets; ++d) start[d + 1] = start[d] + top_[d];
+    std::array<std::uint32_t, kBuckets> next;
+    std::copy(start.begin(), start.end() - 1, next.begin());
+    const int top_shift = kIndexBits + 2 * kDigit;
+    for (const std::uint64_t e : v) tmp[next[e >> top_shift]++] = e;
+    for (std::size_t d = 0; d < kBuckets; ++d) {
+      if (start[d + 1] - start[d] > 1)
+        sortCell(tmp.data() + start[d], v.data() + start[d], start[d + 1] - start[d]);
+    }
+    v.swap(tmp);
   }
 
  private:
-  std::array<std::array<std::uint32_t, kBuckets>, kDigits> count_{};
-};
-
-/// Sorts entries (key << kIndexBits | index) by their 36-bit key: three 12-bit passes, least
-/// significant digit first, with the counts made beside the keys.
-void radixSortByKey(std::vector<std::uint64_t>& v, std::vector<std::uint64_t>& tmp,
-                    DigitCounts& counts) {
-  tmp.resize(v.size());
-  for (int d = 0; d < DigitCounts::kDigits; ++d) {
-    auto& next = counts.starts(d);
-    const int shift = kIndexBits + d * DigitCounts::kDigit;
-    for (const std::uint64_t e : v) tmp[next[(e >> shift) & (DigitCounts::kBuckets - 1)]++] = e;
-    v.swap(tmp);
+  /// Sorts the n entries at a by their lower 24 key bits, using b as scratch; the result is in a.
+  void sortCell(std::uint64_t* a, std::uint64_t* b, std::size_t n) {
+    if (n < 256) {
+      std::sort(a, a + n);
+      return;
+    }
+    low_[0].fill(0);
+    low_[1].fill(0);
+    for (std::size_t i = 0; i < n; ++i) {
+      ++low_[0][(a[i] >> kIndexBits) & (kBuckets - 1)];
+      ++low_[1][(a[i] >> (kIndexBits + kDigit)) & (kBuckets - 1)];
+    }
+    for (auto& c : low_) {
+      std::uint32_t sum = 0;
+      for (auto& x : c) sum += std::exchange(x, sum);
+    }
+    for (std::size_t i = 0; i < n; ++i) b[low_[0][(a[i] >> kIndexBits) & (kBuckets - 1)]++] = a[i];
+    for (std::size_t i = 0; i < n; ++i) {
+      a[low_[1][(b[i] >> (kIndexBits + kDigit)) & (kBuckets - 1)]++] = b[i];
+    }
   }
-}
+
+  std::array<std::uint32_t, kBuckets> top_{};
+  std::array<std::array<std::uint32_t, kBuckets>, 2> low_{};
+};
 
 /// Warps points one range at a time, in block-sized steps. Scan-ordered maps are warped in file
 /// order, each point trying its predecessor's tetrahedron first, then a walk from there when the
@@ -255,7 +281,7 @@ class RangeWarper {
 
   void warpSorted(std::size_t b, std::size_t e) {
     order_.resize(e - b);
-    counts_.clear();
+    sorter_.clear();
     // The virtual machines measured fetched a stream of 24-byte points no earlier than asked
     // (a city's random-order warp 30 -> 38 M points/s with this prefetch).
     constexpr std::size_t kStreamAhead = 32;
@@ -263,10 +289,10 @@ class RangeWarper {
       __builtin_prefetch(data_ + std::min(i + kStreamAhead, e - 1) * step_, 0);
       const Eigen::Vector3d p = xyz_.get(data_ + i * step_);
       const std::uint64_t key = p.allFinite() ? keys_(p) : 0;
-      counts_.add(key);
+      sorter_.add(key);
       order_[i - b] = (key << kIndexBits) | (i - b);
     }
-    radixSortByKey(order_, tmp_, counts_);
+    sorter_.sort(order_, tmp_);
     // The points are read out of file order: fetch a few ahead, or every read waits for memory.
     constexpr std::size_t kAhead = 64;
     const std::size_t n = order_.size();
@@ -320,7 +346,7 @@ class RangeWarper {
   std::size_t hits_ = 0;
   bool sorted_ = false;
   std::vector<std::uint64_t> order_, tmp_;
-  DigitCounts counts_;
+  KeySorter sorter_;
 };
 
 template <typename Xyz>
