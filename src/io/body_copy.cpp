@@ -33,13 +33,7 @@ void copyRange(int in_fd, off_t in_off, int out_fd, off_t out_off, std::size_t b
       if (buf.empty()) buf.resize(std::size_t{1} << 22);
       n = ::pread(in_fd, buf.data(), std::min(bytes, buf.size()), in_off);
       if (n > 0) {
-        for (ssize_t done = 0; done < n;) {
-          const ssize_t w = ::pwrite(out_fd, buf.data() + done, static_cast<std::size_t>(n - done),
-                                     out_off + done);
-          if (w < 0 && errno == EINTR) continue;
-          if (w <= 0) throw Error(name + ": write failed: " + std::strerror(errno));
-          done += w;
-        }
+        writeAt(out_fd, buf.data(), static_cast<std::size_t>(n), out_off, name);
         in_off += n;
         out_off += n;
       }
@@ -120,8 +114,28 @@ bool reserveSpace(int fd, std::size_t bytes, const std::string& name) {
 }
 
 void writeHeader(int fd, const std::string& text, const std::string& name) {
-  if (::pwrite(fd, text.data(), text.size(), 0) != static_cast<ssize_t>(text.size())) {
-    throw Error(name + ": write failed: " + std::strerror(errno));
+  writeAt(fd, reinterpret_cast<const std::uint8_t*>(text.data()), text.size(), 0, name);
+}
+
+void readAt(int fd, std::uint8_t* buf, std::size_t bytes, off_t offset, const std::string& name) {
+  for (std::size_t done = 0; done < bytes;) {
+    const ssize_t n = ::pread(fd, buf + done, bytes - done, offset + static_cast<off_t>(done));
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      throw Error(name + ": read failed" +
+                  (n < 0 ? std::string(": ") + std::strerror(errno) : std::string(" (cut short)")));
+    }
+    done += static_cast<std::size_t>(n);
+  }
+}
+
+void writeAt(int fd, const std::uint8_t* buf, std::size_t bytes, off_t offset,
+             const std::string& name) {
+  for (std::size_t done = 0; done < bytes;) {
+    const ssize_t n = ::pwrite(fd, buf + done, bytes - done, offset + static_cast<off_t>(done));
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) throw Error(name + ": write failed: " + std::strerror(n < 0 ? errno : ENOSPC));
+    done += static_cast<std::size_t>(n);
   }
 }
 

@@ -2,9 +2,12 @@
 // Copying a binary map's body into its output in the kernel, on a thread of its own, ahead of
 // the warp that works on the output in place. Private to the io library.
 
+#include <sys/types.h>
+
 #include <atomic>
 #include <condition_variable>
 #include <cstddef>
+#include <cstdint>
 #include <exception>
 #include <memory>
 #include <mutex>
@@ -68,11 +71,19 @@ struct OutputBody {
   std::unique_ptr<BodyCopier> copier;
 };
 
-/// Reserves `bytes` for the file open at fd; false where the filesystem cannot (a mapped write
-/// could then die of SIGBUS on a full disk). Throws Error naming `name` for another failure.
+/// Reserves `bytes` for the file open at fd; false where the filesystem cannot (a full disk then
+/// shows before the warp, not in its middle). Throws Error naming `name` for another failure.
 bool reserveSpace(int fd, std::size_t bytes, const std::string& name);
 
 /// Writes all of `text` at offset 0; throws Error naming `name`.
 void writeHeader(int fd, const std::string& text, const std::string& name);
+
+/// Reads exactly `bytes` at `offset` of fd into buf; throws Error naming `name` on a failure or
+/// a file shorter than that.
+void readAt(int fd, std::uint8_t* buf, std::size_t bytes, off_t offset, const std::string& name);
+
+/// Writes all `bytes` of buf at `offset` of fd; throws Error naming `name`.
+void writeAt(int fd, const std::uint8_t* buf, std::size_t bytes, off_t offset,
+             const std::string& name);
 
 }  // namespace flexcloud

@@ -1,7 +1,6 @@
 #include "flexcloud/io/map_stream.h"
 
 #include <fcntl.h>
-#include <sys/mman.h>
 #include <unistd.h>
 
 #include <array>
@@ -206,28 +205,22 @@ bool startBody(MapJob& job, const std::string& in, const AtomicFile& file, const
   return true;
 }
 
-/// Warps points [first, first + n) of the output file in place through a memory map that is
-/// unmapped again at once, so resident memory stays at a chunk.
-void warpMapped(MapJob& job, int fd, std::size_t offset, std::size_t first, std::size_t n,
-                const std::string& out) {
-  static const auto page = static_cast<std::size_t>(::sysconf(_SC_PAGESIZE));
-  const std::size_t start = offset / page * page;
-  const std::size_t length = offset + n * job.header().point_step - start;
-  void* base = ::mmap(nullptr, length, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_POPULATE, fd,
-                      static_cast<off_t>(start));
-  if (base == MAP_FAILED) throw Error(out + ": cannot map the output: " + std::strerror(errno));
-  struct Unmap {
-    void* p;
-    std::size_t len;
-    ~Unmap() { ::munmap(p, len); }
-  } unmap{base, length};
-  job.warp(static_cast<std::uint8_t*>(base) + (offset - start), first, n);
+/// Warps points [first, first + n) of the output file in place: read back into buf (a chunk's
+/// size: resident memory stays at a chunk), warped, written over. A memory map of the same bytes
+/// cost more: every page of a shared file map takes a write fault on its first store (the
+/// filesystem's page_mkwrite), 10 % of a city-size run's CPU time.
+void warpAt(MapJob& job, int fd, std::size_t offset, std::size_t first, std::size_t n,
+            std::vector<std::uint8_t>& buf, const std::string& out) {
+  buf.resize(n * job.header().point_step);
+  readAt(fd, buf.data(), buf.size(), static_cast<off_t>(offset), out);
+  job.warp(buf.data(), first, n);
+  writeAt(fd, buf.data(), buf.size(), static_cast<off_t>(offset), out);
 }
 
 /// The fast way: reserve the output, copy the body in the kernel (a copier thread runs ahead
 /// chunk by chunk; started at the run's start where `precopy` holds this map) and warp it in
-/// place chunk by chunk through memory maps. Returns false, having written nothing, where the
-/// filesystem cannot reserve space.
+/// place chunk by chunk. Returns false, having written nothing, where the filesystem cannot
+/// reserve space.
 bool warpInPlace(MapJob& job, const std::string& in, const std::string& out, MapPrecopy* precopy) {
   const PcdHeader& h = job.header();
   const std::string text =
@@ -238,10 +231,11 @@ bool warpInPlace(MapJob& job, const std::string& in, const std::string& out, Map
   const bool taken = precopy != nullptr && precopy->takeAs(in, file.tempPath(), body);
   if (!taken && !startBody(job, in, file, out, text, body)) return false;
   job.prepare();  // builds the location grid while the copier runs
+  std::vector<std::uint8_t> buf;
   for (std::size_t first = 0; first < h.points; first += job.chunk()) {
     const std::size_t n = std::min(job.chunk(), h.points - first);
     body.copier->waitFor(first + n);
-    warpMapped(job, body.out.fd, text.size() + first * h.point_step, first, n, out);
+    warpAt(job, body.out.fd, text.size() + first * h.point_step, first, n, buf, out);
   }
   job.info().read_seconds += body.copier->finish();
   const auto t0 = Clock::now();

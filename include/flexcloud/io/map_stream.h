@@ -18,8 +18,8 @@ struct MapStreamOptions {
   std::size_t chunk_points = 1 << 20;
   std::string truth;  ///< optional ground truth PCD: same points, same order
   Eigen::Isometry3d T_enu_map = Eigen::Isometry3d::Identity();  ///< for the rigid-only error
-  /// Copy in the kernel and warp in place through memory maps where the filesystem can reserve
-  /// the space; false: always read, warp and write through buffers.
+  /// Copy in the kernel and warp the copy in place, a chunk at a time, where the filesystem can
+  /// reserve the space; false: always read, warp and write through buffers.
   bool in_place = true;
   /// The body's copy started at the run's start (taken over when it holds this map), or null.
   MapPrecopy* precopy = nullptr;
