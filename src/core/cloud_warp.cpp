@@ -179,7 +179,7 @@ class KeySorter {
   static constexpr std::size_t kBuckets = std::size_t{1} << kDigit;
 
   void clear() { top_.fill(0); }
-  void add(std::uint64_t key) { ++top_[key >> (2 * kDigit)]; }
+  void add(std::uint64_t key) { ++top_[key >> (2 * kDigit)]; }  // the top digit of the key
 
   /// Sorts v; tmp is scratch space.
   void sort(std::vector<std::uint64_t>& v, std::vector<std::uint64_t>& tmp) {
@@ -188,8 +188,7 @@ class KeySorter {
     for (std::size_t d = 0; d < kBuckets; ++d) start[d + 1] = start[d] + top_[d];
     std::array<std::uint32_t, kBuckets> next;
     std::copy(start.begin(), start.end() - 1, next.begin());
-    const int top_shift = kIndexBits + 2 * kDigit;
-    for (const std::uint64_t e : v) tmp[next[e >> top_shift]++] = e;
+    for (const std::uint64_t e : v) tmp[next[digit(e, 2)]++] = e;
     for (std::size_t d = 0; d < kBuckets; ++d) {
       if (start[d + 1] - start[d] > 1)
         sortCell(tmp.data() + start[d], v.data() + start[d], start[d + 1] - start[d]);
@@ -200,23 +199,29 @@ class KeySorter {
  private:
   /// Sorts the n entries at a by their lower 24 key bits, using b as scratch; the result is in a.
   void sortCell(std::uint64_t* a, std::uint64_t* b, std::size_t n) {
-    if (n < 256) {
+    if (n < 256) {  // fewer entries than a pass's 4096 counters: a comparison sort
       std::sort(a, a + n);
       return;
     }
-    low_[0].fill(0);
-    low_[1].fill(0);
+    startsOfLowDigits(a, n);
+    for (std::size_t i = 0; i < n; ++i) b[low_[0][digit(a[i], 0)]++] = a[i];
+    for (std::size_t i = 0; i < n; ++i) a[low_[1][digit(b[i], 1)]++] = b[i];
+  }
+
+  static std::size_t digit(std::uint64_t entry, int d) {
+    return (entry >> (kIndexBits + d * kDigit)) & (kBuckets - 1);
+  }
+
+  /// low_[d][v]: where the first of the n entries at a with value v of digit d goes.
+  void startsOfLowDigits(const std::uint64_t* a, std::size_t n) {
+    for (auto& c : low_) c.fill(0);
     for (std::size_t i = 0; i < n; ++i) {
-      ++low_[0][(a[i] >> kIndexBits) & (kBuckets - 1)];
-      ++low_[1][(a[i] >> (kIndexBits + kDigit)) & (kBuckets - 1)];
+      ++low_[0][digit(a[i], 0)];
+      ++low_[1][digit(a[i], 1)];
     }
     for (auto& c : low_) {
       std::uint32_t sum = 0;
       for (auto& x : c) sum += std::exchange(x, sum);
-    }
-    for (std::size_t i = 0; i < n; ++i) b[low_[0][(a[i] >> kIndexBits) & (kBuckets - 1)]++] = a[i];
-    for (std::size_t i = 0; i < n; ++i) {
-      a[low_[1][(b[i] >> (kIndexBits + kDigit)) & (kBuckets - 1)]++] = b[i];
     }
   }
 
