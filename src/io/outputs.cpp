@@ -336,15 +336,25 @@ std::string fixesText(const GeoreferenceResult& r) {
        "std_v_m (its own: reported, or estimated where not given) slam_jitter_h_m "
        "slam_jitter_v_m slam_gap_m (the SLAM's at its stamp, added to its std-dev in the fusion)\n";
   if (!r.fusion) return s.str();
-  s << std::fixed;
+  std::string text = s.str();
+  text.reserve(text.size() + r.fusion->fixes.size() * 112);
+  const auto field = [&text](double v, int decimals) {
+    text += ' ';
+    appendFixed(text, v, decimals);
+  };
   for (const auto& o : r.fusion->fixes) {
-    s << std::setprecision(6) << o.stamp << ' ' << std::setprecision(4) << o.position.x() << ' '
-      << o.position.y() << ' ' << o.position.z() << ' ' << o.residual << ' ' << std::setprecision(3)
-      << o.weight << ' ' << toString(o.verdict) << ' ' << std::setprecision(4) << o.std_dev.x()
-      << ' ' << o.std_dev.z() << ' ' << o.slam_jitter.x() << ' ' << o.slam_jitter.z() << ' '
-      << o.slam_gap << '\n';
+    appendFixed(text, o.stamp, 6);
+    for (const double v : {o.position.x(), o.position.y(), o.position.z(), o.residual}) field(v, 4);
+    field(o.weight, 3);
+    text += ' ';
+    text += toString(o.verdict);
+    for (const double v :
+         {o.std_dev.x(), o.std_dev.z(), o.slam_jitter.x(), o.slam_jitter.z(), o.slam_gap}) {
+      field(v, 4);
+    }
+    text += '\n';
   }
-  return s.str();
+  return text;
 }
 
 void checkExports(const GeoreferenceResult& r, const Params& params) {

@@ -1,7 +1,9 @@
 #include "flexcloud/io/text_io.h"
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
+#include <charconv>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -177,15 +179,31 @@ std::vector<Eigen::Vector3d> readPointsFile(const std::string& path) {
   return out;
 }
 
+void appendFixed(std::string& s, double v, int decimals) {
+  // The longest fixed text of a double: 309 integer digits, a sign, a point, the decimals.
+  std::array<char, 320 + 32> buf;
+  decimals = std::clamp(decimals, 0, 32);
+  const auto r =
+      std::to_chars(buf.data(), buf.data() + buf.size(), v, std::chars_format::fixed, decimals);
+  s.append(buf.data(), r.ptr);
+}
+
 std::string formatTum(const Trajectory& poses) {
-  std::ostringstream s;
-  s << std::fixed;
+  std::string s;
+  s.reserve(poses.size() * 112);
   for (const auto& p : poses) {
-    s << std::setprecision(9) << p.stamp << ' ' << std::setprecision(6) << p.position.x() << ' '
-      << p.position.y() << ' ' << p.position.z() << ' ' << std::setprecision(9) << p.orientation.x()
-      << ' ' << p.orientation.y() << ' ' << p.orientation.z() << ' ' << p.orientation.w() << '\n';
+    appendFixed(s, p.stamp, 9);
+    for (int a = 0; a < 3; ++a) {
+      s += ' ';
+      appendFixed(s, p.position(a), 6);
+    }
+    for (const double q : p.orientation.coeffs()) {  // x, y, z, w
+      s += ' ';
+      appendFixed(s, q, 9);
+    }
+    s += '\n';
   }
-  return s.str();
+  return s;
 }
 
 }  // namespace flexcloud

@@ -1,5 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstdio>
+
 #include "flexcloud/io/text_io.h"
 
 namespace flexcloud {
@@ -58,6 +61,41 @@ TEST(TextIo, TumRoundTrip) {
   EXPECT_NEAR(back[0].stamp, t[0].stamp, 1e-6);
   EXPECT_LT((back[0].position - t[0].position).norm(), 1e-6);
   EXPECT_NEAR(back[0].orientation.angularDistance(t[0].orientation), 0.0, 1e-8);
+}
+
+TEST(TextIo, FixedTextIsWhatPrintfWrites) {
+  const double values[] = {0.0,
+                           -0.0,
+                           0.5,
+                           -2.25,
+                           1e-7,
+                           -1e-7,
+                           0.0000005,
+                           0.0000015,
+                           2.5e-10,
+                           1234.5678905,
+                           1700000000.123456789,
+                           6e15,
+                           -1e300,
+                           1e308,
+                           std::nextafter(1.0, 2.0),
+                           0.1 + 0.2};
+  for (const double v : values) {
+    for (const int decimals : {0, 3, 6, 9, 17}) {
+      std::string ours;
+      appendFixed(ours, v, decimals);
+      char theirs[400];
+      std::snprintf(theirs, sizeof theirs, "%.*f", decimals, v);
+      EXPECT_EQ(ours, theirs) << v << " with " << decimals << " decimals";
+    }
+  }
+  Trajectory t(1);
+  t[0].stamp = 1700000000.5;
+  t[0].position = Eigen::Vector3d(-0.0000006, 1.25, 3e6);
+  t[0].orientation = Eigen::Quaterniond(1.0, 0.0, 0.0, 0.0);
+  EXPECT_EQ(formatTum(t),
+            "1700000000.500000000 -0.000001 1.250000 3000000.000000 0.000000000 0.000000000 "
+            "0.000000000 1.000000000\n");
 }
 
 }  // namespace

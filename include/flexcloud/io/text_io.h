@@ -47,6 +47,10 @@ std::vector<GnssPoint> parseLocalGnss(const std::string& text, const std::string
 /// TUM text of a trajectory (stamps in seconds, 9 decimals; positions to the micrometre).
 std::string formatTum(const Trajectory& poses);
 
+/// Appends v with `decimals` (0-32) decimals in fixed notation: the text printf's "%.*f" writes
+/// (std::to_chars, a few times faster than a stream).
+void appendFixed(std::string& s, double v, int decimals);
+
 /// Reads a whole file; throws Error naming it when missing or unreadable.
 std::string readWholeFile(const std::string& path);
 
