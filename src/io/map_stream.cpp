@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cstring>
+#include <functional>
 #include <future>
 #include <optional>
 
@@ -205,22 +206,51 @@ bool startBody(MapJob& job, const std::string& in, const AtomicFile& file, const
   return true;
 }
 
-/// Warps points [first, first + n) of the output file in place: read back into buf (a chunk's
-/// size: resident memory stays at a chunk), warped, written over. A memory map of the same bytes
-/// cost more: every page of a shared file map takes a write fault on its first store (the
-/// filesystem's page_mkwrite), 10 % of a city-size run's CPU time.
-void warpAt(MapJob& job, int fd, std::size_t offset, std::size_t first, std::size_t n,
-            std::vector<std::uint8_t>& buf, const std::string& out) {
-  buf.resize(n * job.header().point_step);
-  readAt(fd, buf.data(), buf.size(), static_cast<off_t>(offset), out);
-  job.warp(buf.data(), first, n);
-  writeAt(fd, buf.data(), buf.size(), static_cast<off_t>(offset), out);
+/// Reads the points from `first` on (at most a chunk) into buf; returns how many, 0 at the end.
+using ChunkRead = std::function<std::size_t(std::uint8_t* buf, std::size_t first)>;
+/// Writes the n warped points of buf, which begin at point `first`.
+using ChunkWrite = std::function<void(const std::uint8_t* buf, std::size_t first, std::size_t n)>;
+
+/// Warps a map chunk by chunk through three buffers: chunk i+1 is read and chunk i-1 written
+/// while chunk i is warped, so the copies in and out of the buffers keep no core waiting.
+void warpChunks(MapJob& job, const ChunkRead& read, const ChunkWrite& write) {
+  const PcdHeader& h = job.header();
+  std::array<std::vector<std::uint8_t>, 3> buffers;
+  for (auto& b : buffers)
+    b.resize(std::min(job.chunk(), std::max<std::size_t>(1, h.points)) * h.point_step);
+  auto readInto = [&](std::size_t slot, std::size_t first) {
+    const auto t0 = Clock::now();
+    const std::size_t n = read(buffers[slot].data(), first);
+    job.info().read_seconds += since(t0);
+    return n;
+  };
+  std::future<std::size_t> next = std::async(std::launch::async, readInto, 0, 0);
+  std::future<void> writing;
+  std::size_t first = 0;
+  for (std::size_t i = 0;; ++i) {
+    const std::size_t n = next.get();
+    if (n == 0) break;
+    std::uint8_t* data = buffers[i % 3].data();
+    // Chunk i+1 reuses the buffer of chunk i-2, whose write ended before chunk i-1's began.
+    next = std::async(std::launch::async, readInto, (i + 1) % 3, first + n);
+    job.warp(data, first, n);
+    if (writing.valid()) writing.get();
+    writing = std::async(std::launch::async, [&write, &job, data, first, n] {
+      const auto t0 = Clock::now();
+      write(data, first, n);
+      job.info().write_seconds += since(t0);
+    });
+    first += n;
+  }
+  if (writing.valid()) writing.get();
 }
 
 /// The fast way: reserve the output, copy the body in the kernel (a copier thread runs ahead
-/// chunk by chunk; started at the run's start where `precopy` holds this map) and warp it in
-/// place chunk by chunk. Returns false, having written nothing, where the filesystem cannot
-/// reserve space.
+/// chunk by chunk; started at the run's start where `precopy` holds this map) and warp the copy
+/// in place: each chunk read back, warped and written over. A memory map of the same bytes cost
+/// more: every page of a shared file map takes a write fault on its first store (the
+/// filesystem's page_mkwrite), 10 % of a city-size run's CPU time. Returns false, having written
+/// nothing, where the filesystem cannot reserve space.
 bool warpInPlace(MapJob& job, const std::string& in, const std::string& out, MapPrecopy* precopy) {
   const PcdHeader& h = job.header();
   const std::string text =
@@ -231,12 +261,22 @@ bool warpInPlace(MapJob& job, const std::string& in, const std::string& out, Map
   const bool taken = precopy != nullptr && precopy->takeAs(in, file.tempPath(), body);
   if (!taken && !startBody(job, in, file, out, text, body)) return false;
   job.prepare();  // builds the location grid while the copier runs
-  std::vector<std::uint8_t> buf;
-  for (std::size_t first = 0; first < h.points; first += job.chunk()) {
-    const std::size_t n = std::min(job.chunk(), h.points - first);
-    body.copier->waitFor(first + n);
-    warpAt(job, body.out.fd, text.size() + first * h.point_step, first, n, buf, out);
-  }
+  const auto offset = [&](std::size_t first) {
+    return static_cast<off_t>(text.size() + first * h.point_step);
+  };
+  const int fd = body.out.fd;
+  warpChunks(
+      job,
+      [&](std::uint8_t* buf, std::size_t first) -> std::size_t {
+        if (first >= h.points) return 0;
+        const std::size_t n = std::min(job.chunk(), h.points - first);
+        body.copier->waitFor(first + n);
+        readAt(fd, buf, n * h.point_step, offset(first), out);
+        return n;
+      },
+      [&](const std::uint8_t* buf, std::size_t first, std::size_t n) {
+        writeAt(fd, buf, n * h.point_step, offset(first), out);
+      });
   job.info().read_seconds += body.copier->finish();
   const auto t0 = Clock::now();
   if (::close(body.out.release()) != 0)
@@ -246,42 +286,15 @@ bool warpInPlace(MapJob& job, const std::string& in, const std::string& out, Map
   return true;
 }
 
-/// The portable way: read, warp and write chunk by chunk through three buffers; chunk i+1 is
-/// read and chunk i-1 written while chunk i is warped.
+/// The portable way: read and write the files in order, through buffers.
 void warpPipeline(MapJob& job, const std::string& out) {
   job.prepare();
   const PcdHeader& h = job.header();
   PcdChunkWriter writer(out, job.fields(), h.point_step, static_cast<std::uint32_t>(h.width),
                         static_cast<std::uint32_t>(h.height));
-  const std::size_t chunk = job.chunk();
-  std::array<std::vector<std::uint8_t>, 3> buffers;
-  for (auto& b : buffers)
-    b.resize(std::min(chunk, std::max<std::size_t>(1, h.points)) * h.point_step);
-  auto readInto = [&](std::size_t slot) {
-    const auto t0 = Clock::now();
-    const std::size_t n = job.reader().read(buffers[slot].data(), chunk);
-    job.info().read_seconds += since(t0);
-    return n;
-  };
-  std::future<std::size_t> next = std::async(std::launch::async, readInto, 0);
-  std::future<void> writing;
-  std::size_t first = 0;
-  for (std::size_t i = 0;; ++i) {
-    const std::size_t n = next.get();
-    if (n == 0) break;
-    std::uint8_t* data = buffers[i % 3].data();
-    // Chunk i+1 reuses the buffer of chunk i-2, whose write ended before chunk i-1's began.
-    next = std::async(std::launch::async, readInto, (i + 1) % 3);
-    job.warp(data, first, n);
-    if (writing.valid()) writing.get();
-    writing = std::async(std::launch::async, [&writer, &job, data, n] {
-      const auto t0 = Clock::now();
-      writer.write(data, n);
-      job.info().write_seconds += since(t0);
-    });
-    first += n;
-  }
-  if (writing.valid()) writing.get();
+  warpChunks(
+      job, [&](std::uint8_t* buf, std::size_t) { return job.reader().read(buf, job.chunk()); },
+      [&](const std::uint8_t* buf, std::size_t, std::size_t n) { writer.write(buf, n); });
   const auto t0 = Clock::now();
   writer.commit();
   job.info().write_seconds += since(t0);
