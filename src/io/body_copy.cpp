@@ -10,6 +10,8 @@
 #include <cstring>
 #include <vector>
 
+#include "flexcloud/io/pcd_header.h"
+#include "flexcloud/io/pcd_stream.h"
 #include "flexcloud/types.h"
 
 namespace flexcloud {
@@ -110,6 +112,23 @@ bool reserveSpace(int fd, std::size_t bytes, const std::string& name) {
     throw Error(name + ": cannot reserve " + std::to_string(bytes) +
                 " bytes: " + std::strerror(rc));
   }
+  return true;
+}
+
+std::string outputHeader(const PcdHeader& map) {
+  return binaryPcdHeader(pclFields(map), map.point_step, static_cast<std::uint32_t>(map.width),
+                         static_cast<std::uint32_t>(map.height));
+}
+
+bool startCopy(OutputBody& body, const std::string& in, const PcdHeader& map,
+               const std::string& header, std::size_t chunk, const std::string& name) {
+  if (!reserveSpace(body.out.fd, header.size() + map.points * map.point_step, name)) return false;
+  writeHeader(body.out.fd, header, name);
+  body.in.fd = ::open(in.c_str(), O_RDONLY | O_CLOEXEC);
+  if (body.in.fd < 0) throw Error(in + ": cannot open: " + std::strerror(errno));
+  body.copier = std::make_unique<BodyCopier>(BodyRange{body.in.fd, body.out.fd, map.data_offset,
+                                                       header.size(), map.points, map.point_step,
+                                                       chunk, name});
   return true;
 }
 

@@ -78,6 +78,19 @@ bool reserveSpace(int fd, std::size_t bytes, const std::string& name);
 /// Writes all of `text` at offset 0; throws Error naming `name`.
 void writeHeader(int fd, const std::string& text, const std::string& name);
 
+struct PcdHeader;
+
+/// The header of a binary map's output: the map's own fields and size, binary. The early copy
+/// and the warp both place the body behind it.
+std::string outputHeader(const PcdHeader& map);
+
+/// Writes `header` into body.out (open, empty) after reserving room for the whole file, opens
+/// map `in` and starts copying the body of `map` behind the header, `chunk` points at a time;
+/// false, nothing written, where the filesystem cannot reserve the space. Throws Error naming
+/// `name` (the output) or `in` for another failure.
+bool startCopy(OutputBody& body, const std::string& in, const PcdHeader& map,
+               const std::string& header, std::size_t chunk, const std::string& name);
+
 /// Reads exactly `bytes` at `offset` of fd into buf; throws Error naming `name` on a failure or
 /// a file shorter than that.
 void readAt(int fd, std::uint8_t* buf, std::size_t bytes, off_t offset, const std::string& name);

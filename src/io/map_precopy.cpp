@@ -7,8 +7,8 @@
 #include <filesystem>
 
 #include "body_copy.h"
-#include "flexcloud/io/pcd_io.h"
-#include "flexcloud/io/pcd_stream.h"
+#include "flexcloud/io/map_stream.h"
+#include "flexcloud/io/pcd_header.h"
 #include "flexcloud/types.h"
 
 namespace flexcloud {
@@ -42,17 +42,10 @@ std::unique_ptr<MapPrecopy> MapPrecopy::start(const std::string& in, const std::
     std::unique_ptr<MapPrecopy> p(new MapPrecopy);
     OutputBody& b = p->impl_->body;
     b.out.fd = ::open(nearestFolder(out_dir).c_str(), O_TMPFILE | O_RDWR | O_CLOEXEC, 0644);
-    b.in.fd = ::open(in.c_str(), O_RDONLY | O_CLOEXEC);
-    if (b.out.fd < 0 || b.in.fd < 0) return nullptr;
-    const std::string text =
-        binaryPcdHeader(pclFields(h), h.point_step, static_cast<std::uint32_t>(h.width),
-                        static_cast<std::uint32_t>(h.height));
-    if (!reserveSpace(b.out.fd, text.size() + h.points * h.point_step, out_dir)) return nullptr;
-    writeHeader(b.out.fd, text, out_dir);
+    if (b.out.fd < 0) return nullptr;
+    if (!startCopy(b, in, h, outputHeader(h), MapStreamOptions().chunk_points, out_dir))
+      return nullptr;
     p->impl_->in = in;
-    b.copier = std::make_unique<BodyCopier>(BodyRange{b.in.fd, b.out.fd, h.data_offset, text.size(),
-                                                      h.points, h.point_step, std::size_t{1} << 20,
-                                                      out_dir});
     return p;
   } catch (const std::exception&) {
     return nullptr;  // the warp meets the same problem and reports it

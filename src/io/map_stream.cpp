@@ -189,21 +189,13 @@ class MapJob {
   ErrorAccumulator aligned_, warped_;
 };
 
-/// Opens the output's temporary file, reserves its whole size, writes the header and starts the
-/// body's copy; false (nothing written) where the filesystem cannot reserve space.
+/// Opens the output's temporary file and starts the body's copy into it (startCopy); false
+/// (nothing written) where the filesystem cannot reserve space.
 bool startBody(MapJob& job, const std::string& in, const AtomicFile& file, const std::string& out,
                const std::string& header, OutputBody& body) {
-  const PcdHeader& h = job.header();
   body.out.fd = ::open(file.tempPath().c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (body.out.fd < 0) throw Error(out + ": cannot open for writing: " + std::strerror(errno));
-  if (!reserveSpace(body.out.fd, header.size() + h.points * h.point_step, out)) return false;
-  writeHeader(body.out.fd, header, out);
-  body.in.fd = ::open(in.c_str(), O_RDONLY | O_CLOEXEC);
-  if (body.in.fd < 0) throw Error(in + ": cannot open: " + std::strerror(errno));
-  body.copier =
-      std::make_unique<BodyCopier>(BodyRange{body.in.fd, body.out.fd, h.data_offset, header.size(),
-                                             h.points, h.point_step, job.chunk(), out});
-  return true;
+  return startCopy(body, in, job.header(), header, job.chunk(), out);
 }
 
 /// Reads the points from `first` on (at most a chunk) into buf; returns how many, 0 at the end.
@@ -253,9 +245,7 @@ void warpChunks(MapJob& job, const ChunkRead& read, const ChunkWrite& write) {
 /// nothing, where the filesystem cannot reserve space.
 bool warpInPlace(MapJob& job, const std::string& in, const std::string& out, MapPrecopy* precopy) {
   const PcdHeader& h = job.header();
-  const std::string text =
-      binaryPcdHeader(job.fields(), h.point_step, static_cast<std::uint32_t>(h.width),
-                      static_cast<std::uint32_t>(h.height));
+  const std::string text = outputHeader(h);
   AtomicFile file(out);
   OutputBody body;
   const bool taken = precopy != nullptr && precopy->takeAs(in, file.tempPath(), body);
