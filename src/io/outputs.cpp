@@ -166,7 +166,6 @@ void writeRunFiles(Staging& stage, const GeoreferenceResult& r, const RunContext
   }
 }
 
-/// autoware/ and the LAS, made from the staged map.
 /// Runs an export of the staged map; its errors name the input map (the staging folder they
 /// would name is gone once the run fails).
 template <typename F>
@@ -183,6 +182,7 @@ auto asInputMap(const std::string& staged, const RunContext& run, F&& f) {
   }
 }
 
+/// autoware/ and the LAS, made from the staged map.
 void writeMapExports(Staging& stage, const GeoreferenceResult& r, const Params& params,
                      const RunContext& run, ExportSummary& e) {
   if (!params.autoware && !params.las) return;
@@ -330,13 +330,12 @@ std::string controlPointsText(const GeoreferenceResult& r) {
 std::string gnssTum(const GeoreferenceResult& r) { return formatTum(gnssTrajectory(r)); }
 
 std::string fixesText(const GeoreferenceResult& r) {
-  std::ostringstream s;
-  s << "# every GNSS fix the fusion judged: stamp (GNSS clock) x y z (enu) residual_m weight "
-       "verdict (used, outlier, above_std_threshold, excluded_range, outside_poses) std_h_m "
-       "std_v_m (its own: reported, or estimated where not given) slam_jitter_h_m "
-       "slam_jitter_v_m slam_gap_m (the SLAM's at its stamp, added to its std-dev in the fusion)\n";
-  if (!r.fusion) return s.str();
-  std::string text = s.str();
+  std::string text =
+      "# every GNSS fix the fusion judged: stamp (GNSS clock) x y z (enu) residual_m weight "
+      "verdict (used, outlier, above_std_threshold, excluded_range, outside_poses) std_h_m "
+      "std_v_m (its own: reported, or estimated where not given) slam_jitter_h_m "
+      "slam_jitter_v_m slam_gap_m (the SLAM's at its stamp, added to its std-dev in the fusion)\n";
+  if (!r.fusion) return text;
   text.reserve(text.size() + r.fusion->fixes.size() * 112);
   const auto field = [&text](double v, int decimals) {
     text += ' ';
