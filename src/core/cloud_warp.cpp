@@ -318,14 +318,16 @@ class RangeWarper {
       return;
     }
     RubberSheet::Location loc{last_, false};
-    if (last_ >= 0 && insideBeyondDoubt(tets_[static_cast<std::size_t>(last_)], p)) {
+    const int face = last_ >= 0 ? certainExit(tets_[static_cast<std::size_t>(last_)], p) : kInDoubt;
+    if (face < 0) {
       ++hits_;
     } else {
       // A walk of a few steps beats the grid's lookups for a point up to tens of metres from
       // the last one (most of a city's points lie in mixed cells, whose candidates and walk
-      // cost more); its first step settles a point on a face of the last tetrahedron.
+      // cost more). The test above was its first step, unless p lies on a face of the last
+      // tetrahedron: then the walk's exact test settles it.
       const bool near = last_ >= 0 && (p - last_point_).squaredNorm() < kNear * kNear;
-      loc = near ? sheet_.locateFrom(p, last_) : sheet_.locate(p);
+      loc = near ? walkOn(p, face) : sheet_.locate(p);
       if (loc.outside) {
         ++s_.outside;
       } else {
@@ -335,6 +337,15 @@ class RangeWarper {
       }
     }
     xyz_.set(pt, RubberSheet::apply(sheet_.affineAt(loc), p));
+  }
+
+  /// The walk from the last tetrahedron, which p lies beyond face (or on a face: kInDoubt).
+  RubberSheet::Location walkOn(const Eigen::Vector3d& p, int face) const {
+    if (face == kInDoubt) return sheet_.locateFrom(p, last_);
+    const int next =
+        tets_[static_cast<std::size_t>(last_)].neighbour[static_cast<std::size_t>(face)];
+    if (next < 0) return {last_, true};  // beyond the hull
+    return sheet_.locateFrom(p, next);
   }
 
   static constexpr double kNear = 50.0;  // m

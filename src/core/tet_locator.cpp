@@ -32,19 +32,8 @@ TetLocator::TetLocator(const std::vector<LocatorTet>& tets,
       hi_(hi) {}
 
 int TetLocator::exit(int tet, const Eigen::Vector3d& p) const {
-  const LocatorTet& t = tets_[static_cast<std::size_t>(tet)];
-  const Eigen::Vector3d l = t.bary * (p - t.v0);
-  int worst = 0;
-  double lowest = 1.0 - l.sum();
-  for (int i = 0; i < 3; ++i) {
-    if (l(i) < lowest) {
-      lowest = l(i);
-      worst = i + 1;
-    }
-  }
-  if (lowest >= t.tolerance) return -1;     // inside beyond doubt
-  if (lowest < -t.tolerance) return worst;  // outside beyond doubt
-  return exactExit(tet, p);
+  const int face = certainExit(tets_[static_cast<std::size_t>(tet)], p);
+  return face == kInDoubt ? exactExit(tet, p) : face;
 }
 
 int TetLocator::exactExit(int tet, const Eigen::Vector3d& p) const {

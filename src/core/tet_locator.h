@@ -29,12 +29,19 @@ struct alignas(64) LocatorTet {
 };
 static_assert(sizeof(LocatorTet) == 128, "a LocatorTet fills two cache lines");
 
-/// Whether p lies inside the tetrahedron beyond the rounding error: the cheap first test of a
-/// guess, without the face to leave by. false also for a point on or near a face, which the
-/// walk's exact test then settles.
-inline bool insideBeyondDoubt(const LocatorTet& t, const Eigen::Vector3d& p) {
+/// The face of t that p certainly lies beyond (0-3, opposite vertex i; the most negative
+/// barycentric coordinate), -1 when p lies inside beyond the rounding error, kInDoubt when p lies
+/// on or near a face (or t is needle-shaped): then the exact test decides. One evaluation serves
+/// both the test of a guess and a walk's first step.
+constexpr int kInDoubt = 4;
+inline int certainExit(const LocatorTet& t, const Eigen::Vector3d& p) {
   const Eigen::Vector3d l = t.bary * (p - t.v0);
-  return std::min(std::min(l.x(), l.y()), std::min(l.z(), 1.0 - l.sum())) >= t.tolerance;
+  const double l3 = 1.0 - l.sum();
+  const double lowest = std::min(std::min(l.x(), l.y()), std::min(l.z(), l3));
+  if (lowest >= t.tolerance) return -1;  // the common case first, without the face's search
+  if (lowest >= -t.tolerance) return kInDoubt;
+  if (l3 == lowest) return 0;
+  return l.x() == lowest ? 1 : l.y() == lowest ? 2 : 3;
 }
 
 class TetLocator {
