@@ -1,0 +1,36 @@
+"""scripts/plot_report.py's table handling: the GNSS rows matched to the trajectory's stamps, and
+the thinning of the trajectory's markers, against plain Python."""
+import importlib.util
+import pathlib
+import unittest
+
+import numpy as np
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+spec = importlib.util.spec_from_file_location("plot_report", ROOT / "scripts" / "plot_report.py")
+plot_report = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(plot_report)
+
+
+class PlotReportTables(unittest.TestCase):
+    def test_rows_match_by_the_stamp_to_the_microsecond(self):
+        rng = np.random.default_rng(3)
+        times = 1.7e9 + np.round(np.sort(rng.uniform(0, 600, 3000)), 6)
+        shuffled = rng.permutation(len(times))
+        times = times[shuffled]  # any order
+        wanted = np.concatenate([times[::7] + 4e-7, times[::11] - 3e-7, [1.7e9 - 1, 1.8e9],
+                                 times[5:6] + 2e-6])
+        index = {round(t, 6): i for i, t in enumerate(times)}
+        expected = [index.get(round(t, 6), -1) for t in wanted]
+        got = plot_report.matching_rows(times, wanted)
+        self.assertEqual(got.tolist(), expected)
+        self.assertEqual(got[-3:].tolist(), [-1, -1, -1])  # before, after, 2 us off
+
+    def test_thinning_keeps_at_most_the_asked_rows_and_every_row_of_short_drives(self):
+        for n, most, kept in [(100, 4000, 100), (4000, 4000, 4000), (4001, 4000, 2001),
+                              (16667, 4000, 3334)]:
+            self.assertEqual(len(range(n)[plot_report.thinned(n, most)]), kept)
+
+
+if __name__ == "__main__":
+    unittest.main()
