@@ -339,15 +339,22 @@ class RangeWarper {
     xyz_.set(pt, RubberSheet::apply(sheet_.affineAt(loc), p));
   }
 
-  /// The walk from the last tetrahedron, which p lies beyond face (or on a face: kInDoubt).
+  /// The visibility walk from the last tetrahedron, which p lies beyond `face` (or on a face:
+  /// kInDoubt), through the records at hand; a point on a face, or a walk longer than a few
+  /// steps, goes on in the sheet's own walk, whose exact test settles it.
   RubberSheet::Location walkOn(const Eigen::Vector3d& p, int face) const {
     if (face == kInDoubt) return sheet_.locateFrom(p, last_);
     const int next =
         tets_[static_cast<std::size_t>(last_)].neighbour[static_cast<std::size_t>(face)];
     if (next < 0) return {last_, true};  // beyond the hull
-    return sheet_.locateFrom(p, next);
+    const WalkEnd end = walkWith(tets_, next, kSteps, [&](int tet) {
+      return certainExit(tets_[static_cast<std::size_t>(tet)], p);
+    });
+    if (end.face == kInDoubt) return sheet_.locateFrom(p, end.tet);
+    return {end.tet, end.face == kBeyondHull};
   }
 
+  static constexpr std::size_t kSteps = 16;
   static constexpr double kNear = 50.0;  // m
 
   std::uint8_t* data_;

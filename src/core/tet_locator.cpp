@@ -54,17 +54,11 @@ int TetLocator::exactExit(int tet, const Eigen::Vector3d& p) const {
 }
 
 TetLocator::Location TetLocator::walk(const Eigen::Vector3d& p, int start) const {
-  int current = start;
-  const std::size_t limit = 4 * tets_.size() + 64;
-  for (std::size_t step = 0; step < limit; ++step) {
-    const int face = exit(current, p);
-    if (face < 0) return {current, false};
-    const int next =
-        tets_[static_cast<std::size_t>(current)].neighbour[static_cast<std::size_t>(face)];
-    if (next < 0) return {current, true};
-    current = next;
-  }
-  return bruteForce(p);  // never seen: a visibility walk in a Delaunay triangulation ends
+  const WalkEnd end =
+      walkWith(tets_, start, 4 * tets_.size() + 64, [&](int tet) { return exit(tet, p); });
+  // The steps ran out: never seen, a visibility walk in a Delaunay triangulation ends.
+  if (end.face == kInDoubt) return bruteForce(p);
+  return {end.tet, end.face == kBeyondHull};
 }
 
 TetLocator::Location TetLocator::bruteForce(const Eigen::Vector3d& p) const {

@@ -44,6 +44,30 @@ inline int certainExit(const LocatorTet& t, const Eigen::Vector3d& p) {
   return l.x() == lowest ? 1 : l.y() == lowest ? 2 : 3;
 }
 
+/// Where a visibility walk stopped: in tetrahedron `tet`, with `face` its last answer: -1 (the
+/// point lies in it), kBeyondHull (the face to leave by has no neighbour) or kInDoubt.
+constexpr int kBeyondHull = 5;
+struct WalkEnd {
+  int tet;
+  int face;
+};
+
+/// A visibility walk from tetrahedron `tet` over the neighbours, for at most `steps` steps;
+/// exit(t) names the face of t the point lies beyond (-1 inside). A kInDoubt answer, or the
+/// steps running out, stops it with kInDoubt.
+template <typename Exit>
+inline WalkEnd walkWith(const std::vector<LocatorTet>& tets, int tet, std::size_t steps,
+                        const Exit& exit) {
+  for (std::size_t step = 0; step < steps; ++step) {
+    const int face = exit(tet);
+    if (face < 0 || face == kInDoubt) return {tet, face};
+    const int next = tets[static_cast<std::size_t>(tet)].neighbour[static_cast<std::size_t>(face)];
+    if (next < 0) return {tet, kBeyondHull};
+    tet = next;
+  }
+  return {tet, kInDoubt};
+}
+
 class TetLocator {
  public:
   struct Location {
