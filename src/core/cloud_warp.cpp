@@ -299,11 +299,16 @@ class RangeWarper {
     }
     sorter_.sort(order_, tmp_);
     // The points are read out of file order: fetch a few ahead, or every read waits for memory.
+    // Both ends of each: a point may span two cache lines (a 24-byte point one time in four,
+    // its coordinates one in eight), and the second line, left to the load, stalled the loop
+    // (random order, 2000 control points: 52 -> 63 M points/s).
     constexpr std::size_t kAhead = 64;
     const std::size_t n = order_.size();
     for (std::size_t k = 0; k < n; ++k) {
       if (k + kAhead < n) {
-        __builtin_prefetch(data_ + (b + (order_[k + kAhead] & kIndexMask)) * step_, 1);
+        const std::uint8_t* ahead = data_ + (b + (order_[k + kAhead] & kIndexMask)) * step_;
+        __builtin_prefetch(ahead, 1);
+        __builtin_prefetch(ahead + step_ - 1, 1);
       }
       warpPoint(b + (order_[k] & kIndexMask));
     }
