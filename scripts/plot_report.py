@@ -53,6 +53,8 @@ def thinned(n, most=4000):
 def matching_rows(times, wanted):
     """For each of `wanted` (s), the row of `times` with the same stamp to the microsecond, -1
     where there is none."""
+    if len(times) == 0:
+        return np.full(len(wanted), -1, dtype=np.int64)
     keys = np.round(times * 1e6).astype(np.int64)
     order = np.argsort(keys, kind="stable")
     probe = np.round(wanted * 1e6).astype(np.int64)

@@ -25,6 +25,7 @@ class PlotReportTables(unittest.TestCase):
         got = plot_report.matching_rows(times, wanted)
         self.assertEqual(got.tolist(), expected)
         self.assertEqual(got[-3:].tolist(), [-1, -1, -1])  # before, after, 2 us off
+        self.assertEqual(plot_report.matching_rows(np.zeros(0), wanted[:3]).tolist(), [-1] * 3)
 
     def test_thinning_keeps_at_most_the_asked_rows_and_every_row_of_short_drives(self):
         for n, most, kept in [(100, 4000, 100), (4000, 4000, 4000), (4001, 4000, 2001),
