@@ -4,6 +4,8 @@
 #include <pcl/io/pcd_io.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -113,6 +115,43 @@ TEST(WarpEquivalence, RandomOrderMatchesCgalWithEveryPointInItsPlace) {
     }
     EXPECT_LT(worst, 1e-6) << (probes == &shuffled ? "shuffled" : "mixed");
   }
+}
+
+/// A SLAM map's float32 records (x y z intensity ...) shuffled: the sorted path reads each
+/// point out of file order, including those whose coordinates span two cache lines. Every
+/// point is CGAL's answer rounded to float, in its place.
+TEST(WarpEquivalence, ShuffledFloatMapMatchesCgalToTheFloat) {
+  const Case c = makeCase(2000, 200000);
+  const RubberSheet& sheet = *c.result.sheet;
+  const pcl::PCLPointCloud2 original = sim::slamCloud(c.drive.map);
+  const std::size_t n = static_cast<std::size_t>(original.width) * original.height;
+  const std::size_t step = original.point_step;
+  std::vector<std::size_t> order(n);
+  for (std::size_t i = 0; i < n; ++i) order[i] = i;
+  std::mt19937 rng(5);
+  std::shuffle(order.begin(), order.end(), rng);
+  pcl::PCLPointCloud2 cloud = original;
+  for (std::size_t i = 0; i < n; ++i) {
+    std::copy_n(original.data.begin() + order[i] * step, step, cloud.data.begin() + i * step);
+  }
+  const pcl::PCLPointCloud2 input = cloud;
+  const WarpStats stats = warpCloud(cloud, sheet, 2);
+  EXPECT_EQ(stats.points, n);
+  const XyzLayout l = XyzLayout::of(cloud, "map");
+  std::size_t off = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3d want = sheet.transformReference(l.get(input.data.data() + i * step));
+    const Eigen::Vector3d got = l.get(cloud.data.data() + i * step);
+    for (int a = 0; a < 3; ++a) {
+      const float w = static_cast<float>(want(a));
+      off += std::abs(static_cast<float>(got(a)) - w) >
+             std::nextafter(std::abs(w), 1e30f) - std::abs(w);
+    }
+    // The other fields travel with their point.
+    EXPECT_EQ(0, std::memcmp(cloud.data.data() + i * step + 12, input.data.data() + i * step + 12,
+                             step - 12));
+  }
+  EXPECT_EQ(off, 0u) << "coordinates more than one float step from CGAL's answer";
 }
 
 TEST(WarpEquivalence, StreamedFileEqualsTheInMemoryWarp) {
