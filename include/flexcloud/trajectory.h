@@ -1,6 +1,7 @@
 #pragma once
 // Cleaning of the SLAM trajectory and arc-length helpers.
 
+#include <optional>
 #include <vector>
 
 #include "flexcloud/types.h"
@@ -23,5 +24,15 @@ Trajectory preparePoses(const Trajectory& poses, PoseCounts& counts);
 std::vector<double> arcLength(const std::vector<Eigen::Vector3d>& positions);
 
 std::vector<Eigen::Vector3d> positionsOf(const Trajectory& poses);
+
+/// The pose at stamp t, between the two poses around it (position linear, orientation slerp);
+/// nothing outside the poses' span. `poses` sorted by stamp.
+std::optional<Pose> poseAt(const Trajectory& poses, double t);
+
+/// Distance (m) of each fix from the antenna (`lever_arm` in the body frame) of `track` at the
+/// fix's own instant: the track's pose at stamp + offset (offset: the SLAM clock minus the
+/// GNSS clock). NaN where that instant lies outside the track.
+std::vector<double> deviationsAtFixes(const Trajectory& track, const std::vector<GnssPoint>& fixes,
+                                      double offset, const Eigen::Vector3d& lever_arm);
 
 }  // namespace flexcloud

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace flexcloud {
 
@@ -49,6 +50,33 @@ std::vector<Eigen::Vector3d> positionsOf(const Trajectory& poses) {
   std::vector<Eigen::Vector3d> out;
   out.reserve(poses.size());
   for (const auto& p : poses) out.push_back(p.position);
+  return out;
+}
+
+std::optional<Pose> poseAt(const Trajectory& poses, double t) {
+  const auto it = std::lower_bound(poses.begin(), poses.end(), t,
+                                   [](const Pose& p, double s) { return p.stamp < s; });
+  if (it == poses.end()) return std::nullopt;
+  if (it->stamp == t) return *it;
+  if (it == poses.begin()) return std::nullopt;
+  const Pose& a = *(it - 1);
+  const double f = (t - a.stamp) / (it->stamp - a.stamp);
+  Pose out;
+  out.stamp = t;
+  out.position = a.position + f * (it->position - a.position);
+  out.orientation = a.orientation.slerp(f, it->orientation);
+  return out;
+}
+
+std::vector<double> deviationsAtFixes(const Trajectory& track, const std::vector<GnssPoint>& fixes,
+                                      double offset, const Eigen::Vector3d& lever_arm) {
+  std::vector<double> out;
+  out.reserve(fixes.size());
+  for (const auto& g : fixes) {
+    const std::optional<Pose> p = poseAt(track, g.stamp + offset);
+    out.push_back(p ? (p->position + p->orientation * lever_arm - g.position).norm()
+                    : std::numeric_limits<double>::quiet_NaN());
+  }
   return out;
 }
 

@@ -5,170 +5,17 @@
 #include <random>
 #include <sstream>
 
+#include "route.h"
+#include "slam_trajectory.h"
+
 namespace flexcloud::sim {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-constexpr std::size_t kRouteSamples = 200000;
-
-/// The route as a dense polyline with cumulative arc length.
-class Route {
- public:
-  Route(std::vector<Eigen::Vector3d> pts) : pts_(std::move(pts)), s_(pts_.size(), 0.0) {
-    for (std::size_t i = 1; i < pts_.size(); ++i)
-      s_[i] = s_[i - 1] + (pts_[i] - pts_[i - 1]).norm();
-  }
-  double length() const { return s_.back(); }
-
-  /// True pose at arc length s: x forward along the road, z up (no roll).
-  Eigen::Isometry3d poseAt(double s) const {
-    s = std::clamp(s, 0.0, length());
-    const auto it = std::upper_bound(s_.begin(), s_.end(), s);
-    std::size_t i = static_cast<std::size_t>(std::max<std::ptrdiff_t>(1, it - s_.begin())) - 1;
-    i = std::min(i, pts_.size() - 2);
-    const double f = (s - s_[i]) / std::max(1e-12, s_[i + 1] - s_[i]);
-    const Eigen::Vector3d p = pts_[i] + f * (pts_[i + 1] - pts_[i]);
-    // Tangent over a few metres for a smooth heading.
-    const std::size_t a = i >= 20 ? i - 20 : 0;
-    const std::size_t b = std::min(pts_.size() - 1, i + 21);
-    const Eigen::Vector3d x = (pts_[b] - pts_[a]).normalized();
-    const Eigen::Vector3d y = Eigen::Vector3d::UnitZ().cross(x).normalized();
-    const Eigen::Vector3d z = x.cross(y);
-    Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-    t.linear() << x, y, z;
-    t.translation() = p;
-    return t;
-  }
-
- private:
-  std::vector<Eigen::Vector3d> pts_;
-  std::vector<double> s_;
-};
-
-Route makeRoute(const SimParams& p, std::mt19937_64& rng) {
-  std::uniform_real_distribution<double> phase(0.0, 2.0 * kPi);
-  const double f1 = phase(rng), f2 = phase(rng), f3 = phase(rng), f4 = phase(rng), f5 = phase(rng);
-  std::vector<Eigen::Vector3d> pts(kRouteSamples);
-  for (int pass = 0; pass < 3; ++pass) {  // rescale until the length matches
-    const double scale = pass == 0 ? p.length / 6.0 : p.length / Route(pts).length();
-    for (std::size_t i = 0; i < kRouteSamples; ++i) {
-      const double u = static_cast<double>(i) / static_cast<double>(kRouteSamples - 1);
-      Eigen::Vector3d q;
-      if (p.loop) {
-        const double th = 2.0 * kPi * u;
-        const double r = 1.0 + 0.22 * std::cos(2 * th + f1) + 0.1 * std::sin(3 * th + f2) +
-                         0.05 * std::cos(5 * th + f3);
-        q = Eigen::Vector3d(r * std::cos(th), 0.75 * r * std::sin(th), 0.0);
-        q.z() = 6.0 * std::sin(th + f4) + 1.5 * std::sin(7 * th + f5);
-      } else {
-        q = Eigen::Vector3d(
-            u, 0.12 * std::sin(2 * kPi * 1.3 * u + f1) + 0.04 * std::sin(2 * kPi * 3.1 * u + f2),
-            0.0);
-        q.z() = 8.0 * std::sin(2 * kPi * 0.8 * u + f4) + 2.0 * std::sin(2 * kPi * 2.7 * u + f5);
-      }
-      const double z = q.z() * p.elevation;
-      if (pass == 0) {
-        q *= p.loop ? p.length / 6.0 : p.length;
-      } else {
-        q = Eigen::Vector3d(pts[i].x() * scale, pts[i].y() * scale, 0.0);
-      }
-      q.z() = z;
-      pts[i] = q;
-    }
-  }
-  return Route(pts);
-}
-
-/// Arc length driven at time t (s), with the optional stop halfway; `length` is the whole
-/// drive (all laps).
-double arcAt(double t, const SimParams& p, double length) {
-  const double t_stop = 0.5 * length / p.speed;
-  if (t <= t_stop) return std::min(length, p.speed * t);
-  if (t <= t_stop + p.stop_duration) return 0.5 * length;
-  return std::min(length, p.speed * (t - p.stop_duration));
-}
-
-Eigen::Matrix3d expSo3(const Eigen::Vector3d& w) {
-  const double a = w.norm();
-  if (a < 1e-15) return Eigen::Matrix3d::Identity();
-  return Eigen::AngleAxisd(a, w / a).toRotationMatrix();
-}
 
 bool inAny(const std::vector<TimeRange>& ranges, double t) {
   return std::any_of(ranges.begin(), ranges.end(),
                      [&](const TimeRange& r) { return r.contains(t); });
-}
-
-/// SLAM trajectory: true increments with scale error, heading/pitch bias and random walks.
-std::vector<Eigen::Isometry3d> integrateSlam(const std::vector<Eigen::Isometry3d>& truth,
-                                             const std::vector<double>& arc, const SimParams& p,
-                                             std::mt19937_64& rng) {
-  std::normal_distribution<double> n01(0.0, 1.0);
-  const double yaw_b = p.heading_bias * kPi / 180.0 / 100.0;
-  const double pitch_b = p.pitch_bias * kPi / 180.0 / 100.0;
-  const std::size_t n = truth.size();
-  std::vector<Eigen::Isometry3d> step(n > 0 ? n - 1 : 0);
-  std::vector<double> ds(step.size());
-  for (std::size_t k = 0; k + 1 < n; ++k) {
-    const Eigen::Isometry3d d = truth[k].inverse() * truth[k + 1];
-    ds[k] = std::abs(arc[k + 1] - arc[k]);
-    const double sq = std::sqrt(ds[k]);
-    step[k] = d;
-    step[k].translation() = (1.0 + p.scale_error) * d.translation() +
-                            p.position_walk * sq * Eigen::Vector3d(n01(rng), n01(rng), n01(rng));
-    const Eigen::Vector3d w(p.rotation_walk * sq * n01(rng),
-                            pitch_b * ds[k] + p.rotation_walk * sq * n01(rng),
-                            yaw_b * ds[k] + p.rotation_walk * sq * n01(rng));
-    step[k].linear() = d.linear() * expSo3(w);
-  }
-  std::vector<Eigen::Isometry3d> slam(n, Eigen::Isometry3d::Identity());
-  auto integrate = [&](std::size_t from, std::size_t to) {
-    for (std::size_t k = from; k < to; ++k) slam[k + 1] = slam[k] * step[k];
-  };
-  integrate(0, n - 1);
-  if (!p.loop || n < 2) return slam;
-  // Loop closure as a pose graph would do it: the rotation error at the end is spread over the
-  // increments in proportion to their length, the trajectory re-integrated, and the remaining
-  // translation gap spread along the path. With close_each_lap, the SLAM also recognises every
-  // revisit: the map is consistent across laps, so the first lap is closed and every later lap
-  // carries the same distortion of each place (plus 2 cm of jitter); without it, only the very
-  // end is closed and the laps stay apart.
-  const double lap = (arc.back() - arc.front()) / p.laps;
-  const bool per_lap = p.close_each_lap && p.laps > 1;
-  std::size_t end = n - 1;
-  if (per_lap) {
-    end = static_cast<std::size_t>(
-        std::lower_bound(arc.begin(), arc.end(), arc.front() + lap - 1e-6) - arc.begin());
-    end = std::min(end, n - 1);
-  }
-  const Eigen::Isometry3d expected = truth.front().inverse() * truth[end];
-  const double total = std::max(1e-9, arc[end] - arc.front());
-  for (int iter = 0; iter < 5; ++iter) {
-    const Eigen::AngleAxisd err(slam[end].linear().transpose() * expected.linear());
-    const Eigen::Vector3d w = err.angle() * err.axis();
-    for (std::size_t k = 0; k < end; ++k) {
-      step[k].linear() = step[k].linear() * expSo3((ds[k] / total) * w);
-    }
-    integrate(0, end);
-  }
-  const Eigen::Vector3d gap = expected.translation() - slam[end].translation();
-  for (std::size_t k = 0; k <= end; ++k) {
-    slam[k].translation() += ((arc[k] - arc.front()) / total) * gap;
-  }
-  if (per_lap) {
-    for (std::size_t k = end + 1; k < n; ++k) {
-      const double on_first = arc.front() + std::fmod(arc[k] - arc.front(), lap);
-      const auto j = std::min<std::size_t>(
-          static_cast<std::size_t>(
-              std::lower_bound(arc.begin(), arc.begin() + static_cast<std::ptrdiff_t>(end) + 1,
-                               on_first) -
-              arc.begin()),
-          end);
-      slam[k] = slam[j] * truth[j].inverse() * truth[k];  // the same distortion of the place
-      slam[k].translation() += 0.02 * Eigen::Vector3d(n01(rng), n01(rng), n01(rng));
-    }
-  }
-  return slam;
 }
 
 Pose toPose(double stamp, const Eigen::Isometry3d& t) {
@@ -301,6 +148,21 @@ std::string validate(const SimParams& p) {
           e.multipath_min_s <= e.multipath_max_s && e.float_min_s > 0.0 &&
           e.float_min_s <= e.float_max_s,
       "GNSS error rates must not be negative, shares at most 1, durations positive");
+  req(std::isfinite(p.max_speed) && p.max_speed >= 0.0 && p.max_speed <= 150.0 &&
+          p.max_lateral_accel > 0.0 && p.max_accel > 0.0 && p.max_brake > 0.0,
+      "max_speed must be in [0, 150] m/s, the accelerations positive");
+  req(std::isfinite(p.bridge_height) && std::abs(p.bridge_height) <= 100.0,
+      "bridge_height must be within 100 m");
+  const SlamErrors& s = p.slam_errors;
+  req(s.degenerate_share >= 0.0 && s.degenerate_share <= 1.0 && s.walk_factor_max >= 1.0 &&
+          s.heading_bias_change >= 0.0 && s.stretch_min_m > 0.0 &&
+          s.stretch_min_m <= s.stretch_max_m && s.grade_walk >= 0.0 &&
+          std::abs(s.grade_error) <= 0.1 && s.snap_min_m >= 0.0 && s.snap_min_m <= s.snap_max_m &&
+          s.closure_min_m > 0.0 && s.closure_min_m <= s.closure_max_m && s.keyframe_min_m >= 0.0 &&
+          s.keyframe_min_m <= s.keyframe_max_m,
+      "SLAM errors: shares in [0, 1], factors at least 1, ranges ordered, grade within 0.1");
+  req(e.correlated_m >= 0.0 && e.correlated_tau_s > 0.0,
+      "GNSS correlated error must not be negative, its time constant positive");
   req(isValidGeodetic(p.datum.lat, p.datum.lon, p.datum.alt), "datum is not a valid position");
   return bad.str();
 }
@@ -312,7 +174,8 @@ SimDrive simulateDrive(const SimParams& p) {
   const Route route = makeRoute(p, rng);
   const double lap = route.length();
   const double length = lap * p.laps;
-  const double duration = length / p.speed + p.stop_duration;
+  const Motion motion(p, route, length);
+  const double duration = motion.duration();
   // The pose at a driven arc length: laps go round the same loop.
   auto poseAt = [&](double s) { return route.poseAt(p.laps > 1 ? std::fmod(s, lap) : s); };
 
@@ -323,11 +186,11 @@ SimDrive simulateDrive(const SimParams& p) {
   std::vector<double> arc(n_odom);
   std::vector<Eigen::Isometry3d> truth(n_odom);
   for (std::size_t k = 0; k < n_odom; ++k) {
-    arc[k] = arcAt(static_cast<double>(k) / p.odom_rate, p, length);
+    arc[k] = motion.arcAt(static_cast<double>(k) / p.odom_rate);
     truth[k] = poseAt(arc[k]);
   }
   const std::vector<Eigen::Isometry3d> slam = integrateSlam(truth, arc, p, rng);
-  for (std::size_t k = 0; k < n_odom; ++k) {
+  for (std::size_t k : keyframeIndices(arc, p.slam_errors, p.seed)) {
     const double stamp = p.start_stamp + static_cast<double>(k) / p.odom_rate;
     d.truth.push_back(toPose(stamp, truth[k]));
     d.slam.push_back(toPose(stamp, slam[k]));
@@ -347,7 +210,7 @@ SimDrive simulateDrive(const SimParams& p) {
                : Eigen::Vector3d(p.gnss_noise_h, p.gnss_noise_h, p.gnss_noise_v);
     const Eigen::Vector3d noise(sigma.x() * n01(rng), sigma.y() * n01(rng), sigma.z() * n01(rng));
     const GnssErrorSample e = errors.at(t);
-    const Eigen::Vector3d pos = poseAt(arcAt(t, p, length)) * p.lever_arm + noise + e.error;
+    const Eigen::Vector3d pos = poseAt(motion.arcAt(t)) * p.lever_arm + noise + e.error;
     RawFix f;
     f.fix.stamp = p.start_stamp + t + p.clock_offset;
     f.has_fix = !inAny(p.no_fix, t);
@@ -360,7 +223,8 @@ SimDrive simulateDrive(const SimParams& p) {
     if (!e.normal || !e.reported_std.allFinite()) f.fix.std_enu = e.reported_std;
     d.fixes.push_back(f);
   }
-  makeMap(route, arc, truth, slam, p, rng, d.map);  // points of one lap, seen on any lap
+  // Points of one lap, seen on any lap from every pose (a keyframe SLAM maps every scan too).
+  makeMap(route, arc, truth, slam, p, rng, d.map);
   return d;
 }
 

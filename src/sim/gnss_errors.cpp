@@ -28,7 +28,11 @@ GnssErrors urbanGnss() {
 
 GnssErrorModel::GnssErrorModel(const GnssErrors& e, double duration, double length,
                                const Eigen::Vector3d& rtk_std, std::uint64_t seed)
-    : e_(e), duration_(duration), rtk_std_(rtk_std), rng_(seed ^ 0x6e55e770ull) {
+    : e_(e),
+      duration_(duration),
+      correlated_rng_(seed ^ 0x1c0aa7edull),
+      rtk_std_(rtk_std),
+      rng_(seed ^ 0x6e55e770ull) {
   std::uniform_real_distribution<double> u(0.0, 1.0);
   auto between = [&](double a, double b) { return a + (b - a) * u(rng_); };
   for (int i = countFor(e.multipath_per_km, length, rng_); i > 0; --i) {
@@ -57,11 +61,26 @@ Eigen::Vector3d GnssErrorModel::episodeBias(const Episode& e, double t) const {
   return Eigen::Vector3d(a * std::cos(h), a * std::sin(h), a * e.vertical);
 }
 
+Eigen::Vector3d GnssErrorModel::correlatedAt(double t) {
+  std::normal_distribution<double> n01(0.0, 1.0);
+  const Eigen::Vector3d sigma(e_.correlated_m, e_.correlated_m, 2.0 * e_.correlated_m);
+  const Eigen::Vector3d draw(n01(correlated_rng_), n01(correlated_rng_), n01(correlated_rng_));
+  // The first sample is drawn from the process's steady state.
+  const double a =
+      correlated_started_ ? std::exp(-std::max(0.0, t - correlated_t_) / e_.correlated_tau_s) : 0.0;
+  correlated_ = a * correlated_ + std::sqrt(1.0 - a * a) * sigma.cwiseProduct(draw);
+  correlated_started_ = true;
+  correlated_t_ = t;
+  return correlated_;
+}
+
 GnssErrorSample GnssErrorModel::at(double t) {
   std::normal_distribution<double> n01(0.0, 1.0);
   std::uniform_real_distribution<double> u(0.0, 1.0);
   GnssErrorSample s;
   s.reported_std = rtk_std_;
+  // Part of the receiver's normal error: it does not make the fix abnormal.
+  if (e_.correlated_m > 0.0) s.error += correlatedAt(t);
   for (const auto& ep : episodes_) {
     const Eigen::Vector3d b = episodeBias(ep, t);
     if (b.isZero()) continue;

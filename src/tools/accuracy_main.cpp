@@ -4,6 +4,7 @@
 // RMSE. Prints a markdown table.
 //   flexcloud_accuracy [--seeds 1,2,3] [--map-points N] [--scenarios loop_rtk,open_urban,...]
 //                      [--set KEY=VALUE ...]
+//   flexcloud_accuracy --real DIR[,DIR...] [--holdout N]   the leave-out study of real drives
 
 #include <cmath>
 #include <cstdio>
@@ -14,6 +15,7 @@
 #include "flexcloud/georeference.h"
 #include "flexcloud/sim/scenarios.h"
 #include "flexcloud/sim/truth_metrics.h"
+#include "real_drives.h"
 
 namespace {
 
@@ -30,6 +32,10 @@ errors against the ground truth (doc/ACCURACY.md).
   --control-points N        (default 200)
   --set KEY=VALUE           a flexcloud parameter (repeatable)
   --only-flexcloud          leave out the published method
+  --real DIR[,DIR...]       instead: real drives (slam_poses_tum.txt, gnss_local_at_poses.txt),
+                            every N-th fix held out of the run and the trajectory compared with
+                            it at its instant (MAE, MAX, RMSE in metres)
+  --holdout N               with --real: hold out every N-th fix (default 4)
   -h, --help
 )";
 
@@ -41,6 +47,8 @@ struct Options {
   int control_points = 200;
   std::vector<std::pair<std::string, std::string>> sets;
   bool published = true;
+  std::vector<std::string> real;
+  std::size_t holdout = 4;
 };
 
 std::vector<std::string> split(const std::string& text) {
@@ -74,6 +82,12 @@ Options parse(int argc, char** argv) {
       o.sets.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
     } else if (f == "--only-flexcloud") {
       o.published = false;
+    } else if (f == "--real") {
+      o.real = split(a.text(f));
+    } else if (f == "--holdout") {
+      const long n = a.integer(f);
+      if (n < 2) throw cli::UsageError("--holdout: " + std::to_string(n) + " is below 2");
+      o.holdout = static_cast<std::size_t>(n);
     } else {
       throw cli::UsageError("unknown option '" + f + "'");
     }
@@ -145,6 +159,15 @@ void runOne(const Options& o, const std::string& name, std::uint64_t seed) {
 int main(int argc, char** argv) {
   try {
     const Options o = parse(argc, argv);
+    if (!o.real.empty()) {
+      std::printf(
+          "| drive | method | held-out MAE | MAX | RMSE | fixes | notes |\n"
+          "|---|---|---:|---:|---:|---:|---|\n");
+      for (const auto& dir : o.real) {
+        study::printRealDriveRows(dir, o.holdout, o.control_points, o.sets);
+      }
+      return 0;
+    }
     std::printf(
         "| drive | seed | method | map RMSE | 0-5 m | 5-15 m | 15-30 m | map MAX | "
         "trajectory RMSE | notes |\n|---|---:|---|---:|---:|---:|---:|---:|---:|---|\n");

@@ -19,6 +19,7 @@
 #include "flexcloud/io/text_io.h"
 #include "flexcloud/param_table.h"
 #include "flexcloud/ros/conversions.h"
+#include "flexcloud/sim/scenarios.h"
 #include "flexcloud/sim/sim_cloud.h"
 
 namespace {
@@ -28,6 +29,8 @@ using cli::UsageError;
 
 constexpr const char* kUsage = R"(usage: simulate_drive [options]
   --out DIR               output folder (default: sim_out)
+  --scenario NAME         start from a drive of the accuracy study (doc/ACCURACY.md), e.g.
+                          loop_urban, race_track, loop_unclosed; the options after it change it
   --seed N                random seed (default 1)
   --open                  open A-to-B route without loop closure (default: loop, loop-closed)
   --length M              route length, one lap (default 5000 m)
@@ -66,7 +69,9 @@ Options parse(int argc, char** argv) {
   auto& s = o.sim;
   while (!a.done()) {
     const std::string f = a.flag();
-    if (f == "-h" || f == "--help") {
+    if (f == "--scenario") {
+      s = sim::scenario(a.text(f), s.seed, s.map_points);
+    } else if (f == "-h" || f == "--help") {
       std::cout << kUsage;
       std::exit(0);
     } else if (f == "--out") {

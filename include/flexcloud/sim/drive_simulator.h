@@ -10,6 +10,7 @@
 #include "flexcloud/geodesy.h"
 #include "flexcloud/gnss.h"
 #include "flexcloud/sim/gnss_errors.h"
+#include "flexcloud/sim/slam_errors.h"
 #include "flexcloud/types.h"
 
 namespace flexcloud::sim {
@@ -25,10 +26,24 @@ struct SimParams {
   /// Close the loop at the end of every lap, as SLAM does when it recognises the place; false:
   /// only at the very end, so the laps stay apart in the map (ghost walls).
   bool close_each_lap = true;
+  /// Whether the SLAM closes the loop at all; false: a drive that ends where it began keeps
+  /// its drift (odometry without loop closure).
+  bool close_loop = true;
+  /// The loop as a figure eight that crosses itself on a bridge, the second pass this much
+  /// higher than the first (m).
+  bool figure_eight = false;
+  double bridge_height = 7.0;
   /// Scale of the route's hills; 0: a perfectly level road.
   double elevation = 1.0;
-  double speed = 12.0;          ///< m/s
-  double stop_duration = 0.0;   ///< s standing still halfway along the route
+  double speed = 12.0;         ///< m/s
+  double stop_duration = 0.0;  ///< s standing still halfway along the route
+  /// A speed profile instead of the constant speed (0: none): as fast as max_speed, the curves
+  /// (max_lateral_accel), the engine (max_accel) and the brakes (max_brake) allow, from and to
+  /// a standstill, as on a race track. m/s and m/s^2.
+  double max_speed = 0.0;
+  double max_lateral_accel = 15.0;
+  double max_accel = 6.0;
+  double max_brake = 12.0;
   double odom_rate = 10.0;      ///< Hz
   double gnss_rate = 5.0;       ///< Hz
   double gnss_noise_h = 0.015;  ///< m, 1-sigma, east and north
@@ -54,6 +69,8 @@ struct SimParams {
   double scale_error = 0.002;
   double rotation_walk = 5e-5;  ///< rad per sqrt(m), each axis
   double position_walk = 1e-3;  ///< m per sqrt(m), each axis
+  /// How real SLAM fails beyond that steady drift (all off by default).
+  SlamErrors slam_errors;
   /// Map: points on the ground, walls and poles up to 25 m beside the road and 10 m high.
   std::size_t map_points = 200000;
   double sensor_height = 1.8;  ///< m above the road

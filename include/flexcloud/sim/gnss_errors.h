@@ -43,6 +43,11 @@ struct GnssErrors {
   /// clean fix after it: the bias ramps in over 2 s to end_bias_m.
   double end_false_rtk_s = 0.0;
   double end_bias_m = 3.0;
+  /// An error that wanders slowly, as a GNSS/INS solution's does: per axis a first-order
+  /// Gauss-Markov process of 1-sigma correlated_m (the vertical twice that) and time constant
+  /// correlated_tau_s, on top of the white noise; 0: none.
+  double correlated_m = 0.0;
+  double correlated_tau_s = 30.0;
 };
 
 /// The urban receiver of issue 9's table: multipath episodes of 1-8 m (half reported as
@@ -80,8 +85,15 @@ class GnssErrorModel {
 
   Eigen::Vector3d episodeBias(const Episode& e, double t) const;
 
+  /// The slowly wandering error at t (GnssErrors::correlated_m), from a generator of its own.
+  Eigen::Vector3d correlatedAt(double t);
+
   GnssErrors e_;
   double duration_;
+  std::mt19937_64 correlated_rng_;
+  bool correlated_started_ = false;
+  double correlated_t_ = 0.0;
+  Eigen::Vector3d correlated_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d rtk_std_;
   std::mt19937_64 rng_;
   std::vector<Episode> episodes_;

@@ -1,0 +1,97 @@
+#include "real_drives.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+
+#include "flexcloud/io/text_io.h"
+#include "flexcloud/trajectory.h"
+
+namespace flexcloud::study {
+
+DriveInput loadRealDrive(const std::string& dir) {
+  for (const char* name : {"slam_poses_tum.txt", "gnss_local_at_poses.txt"}) {
+    if (!std::filesystem::exists(dir + "/" + name)) {
+      throw Error("real drive: " + dir + "/" + name + " does not exist");
+    }
+  }
+  DriveInput in;
+  in.poses = readTumFile(dir + "/slam_poses_tum.txt");
+  in.local_gnss = readLocalGnssFile(dir + "/gnss_local_at_poses.txt");
+  return in;
+}
+
+LeaveOutSplit holdOut(const DriveInput& drive, std::size_t every) {
+  LeaveOutSplit s;
+  s.run = drive;
+  s.run.local_gnss.clear();
+  for (std::size_t i = 0; i < drive.local_gnss.size(); ++i) {
+    (i % every == every / 2 ? s.held_out : s.run.local_gnss).push_back(drive.local_gnss[i]);
+  }
+  return s;
+}
+
+ErrorStats heldOutError(const GeoreferenceResult& r, const Params& p,
+                        const std::vector<GnssPoint>& held_out) {
+  const double offset = p.gnss_time_offset + (r.fusion ? r.fusion->time_offset : 0.0);
+  const Eigen::Vector3d lever(p.lever_arm_x, p.lever_arm_y, p.lever_arm_z);
+  std::vector<double> d;
+  const std::vector<double> all = deviationsAtFixes(r.rubbersheet, held_out, offset, lever);
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    if (!std::isfinite(all[i])) continue;
+    d.push_back(all[i]);
+    if (std::getenv("FLEXCLOUD_STUDY_WORST") &&
+        all[i] > std::atof(std::getenv("FLEXCLOUD_STUDY_WORST")))
+      std::fprintf(stderr, "  held-out %zu stamp %.3f dev %.3f\n", i, held_out[i].stamp, all[i]);
+  }
+  return errorStats(d);
+}
+
+namespace {
+
+void printRow(const std::string& drive, const std::string& method, const ErrorStats& e,
+              const GeoreferenceResult& r) {
+  std::string notes;
+  if (r.fusion) {
+    char buf[160];
+    std::snprintf(buf, sizeof(buf),
+                  "dt %.4f s (1-sigma %.4f), %zu rejected, SLAM noise x%.2f, %.2f s",
+                  r.fusion->time_offset, r.fusion->time_offset_sigma, r.fusion->outliers,
+                  r.fusion->slam_noise_scale, r.fusion->seconds);
+    notes = buf;
+  }
+  std::printf("| %s | %s | %.3f | %.3f | %.3f | %zu | %s |\n", drive.c_str(), method.c_str(), e.mae,
+              e.max, e.rmse, e.count, notes.c_str());
+  std::fflush(stdout);
+}
+
+}  // namespace
+
+void printRealDriveRows(const std::string& dir, std::size_t every, int control_points,
+                        const std::vector<std::pair<std::string, std::string>>& sets) {
+  const LeaveOutSplit split = holdOut(loadRealDrive(dir), every);
+  const std::string name = std::filesystem::path(dir).filename().string();
+  auto make = [&](bool fusion, double refine) {
+    Params p;
+    p.fusion = fusion;
+    p.control_points = control_points;
+    p.refine_fraction = refine;
+    if (!fusion) p.default_std_dev = 0.01;  // the files give none: RTK, as their README says
+    for (const auto& [k, v] : sets) paramTable().setText(p, k, v);
+    return p;
+  };
+  auto run = [&](const std::string& method, const Params& p) {
+    const GeoreferenceResult r = georeference(split.run, p);
+    printRow(name, method, heldOutError(r, p, split.held_out), r);
+    return r;
+  };
+  run("published method", make(false, 0.0));
+  run("fusion: false", make(false, Params().refine_fraction));
+  const Params defaults = make(true, Params().refine_fraction);
+  const GeoreferenceResult d = run("defaults", defaults);
+  Params given = make(false, Params().refine_fraction);
+  given.gnss_time_offset = d.fusion->time_offset;
+  run("fusion: false, the defaults' clock offset", given);
+}
+
+}  // namespace flexcloud::study

@@ -1,0 +1,37 @@
+#pragma once
+// The leave-out study of real drives (doc/ACCURACY.md): a folder with slam_poses_tum.txt and
+// gnss_local_at_poses.txt (../shared/data/a2rl and ../shared/data/monza have this shape), every
+// n-th fix held out of the run, the result's trajectory compared with the held-out fixes at
+// their own instants. No ground truth exists for such a drive: this is the measure.
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "flexcloud/georeference.h"
+
+namespace flexcloud::study {
+
+/// The drive in a folder; throws Error naming the file when one is missing or unreadable.
+DriveInput loadRealDrive(const std::string& dir);
+
+/// The fixes of a drive split into those the run sees and those held out (every `every`-th,
+/// starting at every / 2).
+struct LeaveOutSplit {
+  DriveInput run;
+  std::vector<GnssPoint> held_out;
+};
+LeaveOutSplit holdOut(const DriveInput& drive, std::size_t every);
+
+/// The held-out fixes' distances from a result's rubber-sheeted trajectory at their instants
+/// (gnss_time_offset and the fusion's estimate on top of it applied).
+ErrorStats heldOutError(const GeoreferenceResult& r, const Params& p,
+                        const std::vector<GnssPoint>& held_out);
+
+/// The methods compared on every real drive: the published method, the simple way
+/// (fusion: false) without and with the defaults' clock offset, and the defaults. Prints one
+/// markdown row each; `sets` are applied to every method.
+void printRealDriveRows(const std::string& dir, std::size_t every, int control_points,
+                        const std::vector<std::pair<std::string, std::string>>& sets);
+
+}  // namespace flexcloud::study
