@@ -21,4 +21,13 @@ struct Similarity {
 Similarity umeyama(const std::vector<Eigen::Vector3d>& src, const std::vector<Eigen::Vector3d>& dst,
                    const std::vector<double>& weights, bool with_scale);
 
+/// The rigid umeyama() fit reweighted twice by a Cauchy weight of each pair's residual (scale
+/// three times their median, at least 0.1 m), so that outliers pull less. `weights` are the
+/// pairs' own weights (not empty). The weights of the last fit are left in `final_weights`
+/// when given.
+Similarity robustRigidFit(const std::vector<Eigen::Vector3d>& src,
+                          const std::vector<Eigen::Vector3d>& dst,
+                          const std::vector<double>& weights,
+                          std::vector<double>* final_weights = nullptr);
+
 }  // namespace flexcloud

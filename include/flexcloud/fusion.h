@@ -63,11 +63,13 @@ struct FusionResult {
   /// offset: a fix stamped t was taken at SLAM time t + offset).
   double time_offset = 0.0;
   /// Whether the offset was estimated: asked for (max_time_offset > 0) and shown by the speed
-  /// profiles of the SLAM and the GNSS (otherwise it stays 0), what they showed and its 1-sigma
-  /// (s; infinite where the speed varied too little).
+  /// profiles of the SLAM and the GNSS (otherwise it stays 0), its 1-sigma from the fusion
+  /// (s; infinite where not estimated), and what the speed profiles alone showed with their
+  /// 1-sigma (infinite where the speed varied too little).
   bool time_offset_estimated = false;
-  double time_offset_from_speed = 0.0;
   double time_offset_sigma = 0.0;
+  double time_offset_from_speed = 0.0;
+  double time_offset_speed_sigma = 0.0;
   Eigen::Vector3d lever_arm = Eigen::Vector3d::Zero();  ///< applied, body frame, m
   /// The 1-sigma std-devs given to fixes without one: estimated from the residuals (NaN when
   /// every fix had its own).
@@ -79,6 +81,9 @@ struct FusionResult {
   /// fused trajectory stays further from the GNSS's inliers than their own noise allows: a SLAM
   /// that drifts more than its noise parameters say.
   double slam_noise_scale = 1.0;
+  /// Factors on the reported std-devs of the fixes by class of their horizontal std-dev: below
+  /// 5 cm (RTK-fixed), below 50 cm (float), above; from the drive (1: as reported).
+  double reported_std_scale[3] = {1.0, 1.0, 1.0};
   /// Upper bound of the GNSS's horizontal white noise from its own roughness, m.
   double gnss_roughness_h = 0.0;
   /// The SLAM's pose-to-pose error at the inliers (median, 1-sigma, m), and what the poses
@@ -89,6 +94,9 @@ struct FusionResult {
   std::vector<double> detail_gain;
   std::size_t detail_poses = 0;
   double detail_max_shift = 0.0;
+  /// Leave-out (when asked for): per input fix held out of its fold's solve, its distance
+  /// from the antenna that solve predicts at its instant, m; NaN for the others.
+  std::vector<double> leave_out_deviation;
   std::size_t keyframes = 0;
   std::size_t used = 0;
   std::size_t outliers = 0;
@@ -99,12 +107,21 @@ struct FusionResult {
   double seconds = 0.0;
 };
 
+/// Which fixes a leave-out holds out together: fold[j] of input fix j (-1: never), folds in
+/// all. Each fold is solved again without its fixes, from the full solution.
+struct LeaveOutFolds {
+  std::vector<int> fold;
+  int folds = 0;
+};
+
 /// Fuses `poses` (SLAM, map frame, sorted by stamp) with `gnss` (ENU, sorted by stamp, std-dev
 /// NaN where not given), starting from the rigid alignment T_enu_map, and takes the fixes'
-/// detail where the SLAM is rough (takeGnssDetail). Throws Error when fewer than 3 fixes can
-/// take part, or when cancelled.
+/// detail where the SLAM is rough (takeGnssDetail). With `folds`, also the leave-out
+/// (FusionResult::leave_out_deviation). Throws Error when fewer than 3 fixes can take part, or
+/// when cancelled.
 FusionResult fuseTrajectory(const Trajectory& poses, const std::vector<GnssPoint>& gnss,
                             const Eigen::Isometry3d& T_enu_map, const Params& params,
-                            const CancelToken& cancel = neverCancelled());
+                            const CancelToken& cancel = neverCancelled(),
+                            const LeaveOutFolds& folds = {});
 
 }  // namespace flexcloud

@@ -52,10 +52,13 @@ struct DriftFactor {
 /// A fix: the antenna of the pose at the fix's stamp, reached from keyframe a by the SLAM's
 /// motion (scaled by a's scale error), the lever arm, and the clock offset dt times the velocity.
 struct GnssFactor {
-  Eigen::Vector3d offset;    ///< SLAM translation from keyframe a to the fix's stamp, in a's frame
-  Eigen::Vector3d antenna;   ///< lever arm rotated into a's frame at the fix's stamp
-  Eigen::Vector3d velocity;  ///< SLAM velocity at the fix's stamp, in a's frame, m/s
-  Eigen::Vector3d fix;
+  /// SLAM translation from keyframe a to the fix's stamp, in a's frame.
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+  /// Lever arm rotated into a's frame at the fix's stamp.
+  Eigen::Vector3d antenna = Eigen::Vector3d::Zero();
+  /// SLAM velocity at the fix's stamp, in a's frame, m/s.
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+  Eigen::Vector3d fix = Eigen::Vector3d::Zero();
   const Eigen::Vector3d* sigma = nullptr;  ///< the std-dev it is weighted with now
 
   /// The vector in keyframe a's frame that reaches the antenna from a's position.

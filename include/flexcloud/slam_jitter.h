@@ -2,6 +2,7 @@
 // The SLAM's error from pose to pose, beyond the fusion's model of slowly changing drift.
 
 #include <Eigen/Core>
+#include <optional>
 #include <vector>
 
 namespace flexcloud {
@@ -14,14 +15,26 @@ namespace flexcloud {
 /// fixes, each a robust spread over the `window` fixes on either side, is the SLAM's. Only a
 /// clear excess counts (the GNSS's spread is taken 1.5 times and at least `floor`): the two
 /// spreads of a smooth SLAM differ by their sampling noise alone.
-/// An upper bound of a track's white noise, horizontal (x and y pooled) and vertical, m: the
-/// third difference of consecutive positions takes out position, speed and acceleration and has
-/// 20 times the variance of white noise (median |N(0, 20 s^2)| = 3.016 s); what the motion
-/// leaves in it only raises the bound. NaN for fewer than 4 positions.
-Eigen::Vector2d roughness(const std::vector<Eigen::Vector3d>& track);
-
+/// `stamps` (s, increasing) are the fixes' own: their gaps and uneven spacing are taken into
+/// account (below).
 std::vector<Eigen::Vector3d> slamJitter(const std::vector<Eigen::Vector3d>& fixes,
-                                        const std::vector<Eigen::Vector3d>& slam, int window,
+                                        const std::vector<Eigen::Vector3d>& slam,
+                                        const std::vector<double>& stamps, int window,
                                         double floor);
+
+/// An upper bound of a track's white noise, horizontal (x and y pooled) and vertical, m: the
+/// third divided difference of four consecutive positions at their stamps takes out position,
+/// speed and acceleration; scaled by the norm of its coefficients it has the variance of white
+/// noise (median |N(0, s^2)| = 0.6745 s) however the positions are spaced in time, so dropped
+/// or thinned fixes do not inflate it. What the motion leaves in it only raises the bound. NaN
+/// for fewer than 4 positions.
+Eigen::Vector2d roughness(const std::vector<Eigen::Vector3d>& track,
+                          const std::vector<double>& stamps);
+
+/// |third divided difference| of four positions at their stamps, per axis, over the norm of its
+/// coefficients (white noise of 1-sigma s gives N(0, s^2) whatever the spacing); none when two
+/// stamps coincide.
+std::optional<Eigen::Vector3d> thirdDividedDifference(const Eigen::Vector3d x[4],
+                                                      const double t[4]);
 
 }  // namespace flexcloud

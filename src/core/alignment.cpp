@@ -2,7 +2,10 @@
 
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
+#include <algorithm>
 #include <string>
+
+#include "flexcloud/metrics.h"
 
 namespace flexcloud {
 
@@ -66,6 +69,26 @@ Similarity umeyama(const std::vector<Eigen::Vector3d>& src, const std::vector<Ei
   out.scale = with_scale ? svd.singularValues().dot(d) / var_src : 1.0;
   out.translation = mu_dst - out.scale * out.rotation * mu_src;
   return out;
+}
+
+Similarity robustRigidFit(const std::vector<Eigen::Vector3d>& src,
+                          const std::vector<Eigen::Vector3d>& dst,
+                          const std::vector<double>& weights, std::vector<double>* final_weights) {
+  std::vector<double> w = weights;
+  Similarity fit = umeyama(src, dst, w, false);
+  for (int round = 0; round < 2; ++round) {
+    std::vector<double> r(src.size());
+    for (std::size_t i = 0; i < src.size(); ++i) {
+      r[i] = (fit.rotation * src[i] + fit.translation - dst[i]).norm();
+    }
+    const double c = std::max(0.1, 3.0 * median(r));
+    for (std::size_t i = 0; i < src.size(); ++i) {
+      w[i] = weights[i] / (1.0 + (r[i] / c) * (r[i] / c));
+    }
+    fit = umeyama(src, dst, w, false);
+  }
+  if (final_weights != nullptr) *final_weights = w;
+  return fit;
 }
 
 }  // namespace flexcloud

@@ -12,9 +12,10 @@ namespace {
 constexpr double kStep = 0.02;            // s between the offsets compared
 constexpr int kSampleSteps = 5;           // speed samples every kSampleSteps * kStep = 0.1 s
 constexpr double kBaseline = 0.5;         // s either side of a sample its speed is taken over
-constexpr double kMaxGap = 1.5;           // s, largest gap between fixes a speed is taken across
+constexpr double kMaxGap = 1.5;           // s, largest gap a speed is taken across, at least
+constexpr double kGapIntervals = 2.5;     // the same in median intervals of the track
 constexpr double kClip = 0.5;             // m/s, a speed residual beyond counts as this (outliers)
-constexpr double kObservable = 0.05;      // s, largest 1-sigma an offset is reported observable
+constexpr double kObservable = 0.1;       // s, largest 1-sigma an offset is reported observable
 constexpr std::size_t kMinSamples = 20;   // changing samples (2 s of braking)
 constexpr double kMinAcceleration = 0.3;  // m/s^2 of a changing sample: 10x the GNSS's noise
 constexpr int kCurvatureSteps = 5;        // the cost's curvature is taken over +-0.1 s
@@ -23,26 +24,33 @@ constexpr int kCurvatureSteps = 5;        // the cost's curvature is taken over 
 struct Track {
   std::vector<double> t;
   std::vector<Eigen::Vector3d> p;
+  double max_gap = kMaxGap;  ///< s, set by finish()
 
-  /// Linear interpolation at s; false outside the track or across a gap beyond kMaxGap.
+  /// Sizes the gap limit from the track's own rate: a receiver at 0.5 Hz has its fixes two
+  /// seconds apart, and none of its speeds would pass a fixed limit of 1.5 s.
+  void finish() {
+    std::vector<double> d;
+    for (std::size_t i = 1; i < t.size(); ++i) d.push_back(t[i] - t[i - 1]);
+    max_gap = std::max(kMaxGap, kGapIntervals * (d.empty() ? 0.0 : median(d)));
+  }
+
+  /// Linear interpolation at s; false outside the track or across a gap beyond max_gap.
   bool at(double s, Eigen::Vector3d& out) const {
     const auto it = std::lower_bound(t.begin(), t.end(), s);
     if (it == t.begin() || it == t.end()) return false;
     const std::size_t b = static_cast<std::size_t>(it - t.begin());
     const double span = t[b] - t[b - 1];
-    if (span > kMaxGap || span <= 0.0) return false;
+    if (span > max_gap || span <= 0.0) return false;
     const double f = (s - t[b - 1]) / span;
     out = p[b - 1] + f * (p[b] - p[b - 1]);
     return true;
   }
 
-  /// Speed at s over +-kBaseline; NaN where not available.
-  double speed(double s) const {
+  /// Speed at s over +-h; NaN where not available.
+  double speed(double s, double h) const {
     Eigen::Vector3d a, b;
-    if (!at(s - kBaseline, a) || !at(s + kBaseline, b)) {
-      return std::numeric_limits<double>::quiet_NaN();
-    }
-    return (b - a).norm() / (2.0 * kBaseline);
+    if (!at(s - h, a) || !at(s + h, b)) return std::numeric_limits<double>::quiet_NaN();
+    return (b - a).norm() / (2.0 * h);
   }
 };
 
@@ -52,6 +60,7 @@ Track slamTrack(const Trajectory& poses) {
     out.t.push_back(p.stamp);
     out.p.push_back(p.position);
   }
+  out.finish();
   return out;
 }
 
@@ -62,6 +71,7 @@ Track gnssTrack(const std::vector<GnssPoint>& gnss) {
     out.t.push_back(g.stamp);
     out.p.push_back(g.position);
   }
+  out.finish();
   return out;
 }
 
@@ -77,23 +87,24 @@ struct Profiles {
 Profiles profiles(const Track& slam, const Track& gnss, double max_offset) {
   Profiles out;
   out.reach = static_cast<int>(std::ceil(max_offset / kStep));
-  const double margin = out.reach * kStep + kBaseline;
+  const double h = kBaseline;
+  const double margin = out.reach * kStep + h;
   const double first = std::max(gnss.t.front(), slam.t.front() + margin);
   const double last = std::min(gnss.t.back(), slam.t.back() - margin);
   if (!(last > first)) return out;
   const auto samples = static_cast<std::size_t>((last - first) / (kSampleSteps * kStep)) + 1;
   const double grid0 = first - out.reach * kStep;
   const std::size_t grid = (samples - 1) * kSampleSteps + 2 * out.reach + 1;
-  for (std::size_t j = 0; j < grid; ++j) out.slam.push_back(slam.speed(grid0 + j * kStep));
+  for (std::size_t j = 0; j < grid; ++j) out.slam.push_back(slam.speed(grid0 + j * kStep, h));
   for (std::size_t k = 0; k < samples; ++k) {
-    out.gnss.push_back(gnss.speed(first + k * kSampleSteps * kStep));
+    out.gnss.push_back(gnss.speed(first + k * kSampleSteps * kStep, h));
   }
   // Only where the speed changes does an offset show; the even stretches would add nothing
   // but their noise, whose own correlation makes a flat cost look curved.
-  const auto reach = static_cast<std::size_t>(std::lround(kBaseline / (kSampleSteps * kStep)));
+  const auto reach = static_cast<std::size_t>(std::lround(h / (kSampleSteps * kStep)));
   out.changing.assign(samples, false);
   for (std::size_t k = reach; k + reach < samples; ++k) {
-    const double change = std::abs(out.gnss[k + reach] - out.gnss[k - reach]) / (2.0 * kBaseline);
+    const double change = std::abs(out.gnss[k + reach] - out.gnss[k - reach]) / (2.0 * h);
     out.changing[k] = change > kMinAcceleration;  // false for NaN
   }
   return out;

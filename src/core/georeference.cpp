@@ -8,6 +8,7 @@
 
 #include "flexcloud/interpolation.h"
 #include "flexcloud/metrics.h"
+#include "leave_out.h"
 #include "revisits.h"
 #include "sheet_builder.h"
 
@@ -97,18 +98,8 @@ Alignment robustAlignment(const Trajectory& poses,
                 " poses have GNSS within the std-dev threshold of " +
                 std::to_string(params.stddev_threshold) + " m, at least 3 are needed");
   }
-  const std::vector<double> arc = arcWeights(src);
-  std::vector<double> w = arc;
-  Similarity fit = umeyama(src, dst, w, false);
-  for (int round = 0; round < 2; ++round) {
-    std::vector<double> r(src.size());
-    for (std::size_t i = 0; i < src.size(); ++i) {
-      r[i] = (fit.rotation * src[i] + fit.translation - dst[i]).norm();
-    }
-    const double c = std::max(0.1, 3.0 * median(r));
-    for (std::size_t i = 0; i < src.size(); ++i) w[i] = arc[i] / (1.0 + (r[i] / c) * (r[i] / c));
-    fit = umeyama(src, dst, w, false);
-  }
+  std::vector<double> w;
+  const Similarity fit = robustRigidFit(src, dst, arcWeights(src), &w);
   return {fit.rigid(), umeyama(src, dst, w, true).scale};
 }
 
@@ -247,13 +238,15 @@ std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Param
     s.precision(3);
     s << r.revisits.conflicting << " control point pairs revisit places that the SLAM map puts "
       << "elsewhere on another pass (up to " << r.revisits.worst << " m) while the "
-      << (r.fusion ? "fused trajectory" : "GNSS")
+      << (r.method == Method::kFusion ? "fused trajectory" : "GNSS")
       << " puts them together: the SLAM is at fault there; close those loops in the SLAM, no "
          "warp can merge ghosted passes";
     out.push_back(s.str());
   }
   return out;
 }
+
+std::string toString(Method m) { return m == Method::kFusion ? "fusion" : "gnss"; }
 
 Trajectory gnssTrajectory(const GeoreferenceResult& r) {
   Trajectory t;
@@ -291,11 +284,15 @@ void sheetFromGnss(const Params& params, GeoreferenceResult& r) {
 }
 
 /// Control points and sheet from the fused trajectory, with points beside and above it.
-void sheetFromFusion(const Params& params, const CancelToken& cancel, GeoreferenceResult& r,
-                     StageSeconds& seconds, Stopwatch& watch) {
+void sheetFromFusion(const Params& params, const CancelToken& cancel, const LeaveOutFolds& folds,
+                     GeoreferenceResult& r, StageSeconds& seconds, Stopwatch& watch) {
   const Alignment start = robustAlignment(r.poses, r.gnss_at_pose, params);
   seconds.alignment = watch.lap();
-  r.fusion = fuseTrajectory(r.poses, r.gnss.points, start.T_enu_map, params, cancel);
+  r.fusion = fuseTrajectory(r.poses, r.gnss.points, start.T_enu_map, params, cancel, folds);
+  r.method = Method::kFusion;
+  r.clock_offset = params.gnss_time_offset + r.fusion->time_offset;
+  r.clock_offset_sigma = r.fusion->time_offset_estimated ? r.fusion->time_offset_sigma
+                                                         : std::numeric_limits<double>::quiet_NaN();
   // A fix stamped t was taken at SLAM time t + offset: the GNSS the poses are compared with
   // (the metrics, trajectory_gnss.txt, the revisit check) is taken at their own instant.
   if (r.fusion->time_offset != 0.0) matchGnssAt(r.fusion->time_offset, params, r);
@@ -341,18 +338,24 @@ GeoreferenceResult georeference(const DriveInput& input, const Params& params,
   matchGnss(params, r);
   r.seconds.interpolation = watch.lap();
   if (params.fusion) {
-    sheetFromFusion(params, cancel, r, r.seconds, watch);
+    const LeaveOutFolds folds = leaveOutFolds(r.gnss.points, params);
+    sheetFromFusion(params, cancel, folds, r, r.seconds, watch);
+    r.seconds.control_points = watch.lap();
+    chooseByLeaveOut(input, params, folds, cancel, r);
+    watch.lap();
+    if (r.method == Method::kGnss) return r;  // the GNSS control points' run, complete
   } else {
+    r.clock_offset = params.gnss_time_offset;
     sheetFromGnss(params, r);
+    r.seconds.control_points = watch.lap();
   }
-  r.seconds.control_points = watch.lap();
   cancel.check("georeferencing");
 
   r.rubbersheet = warpTrajectory(*r.sheet, r.poses);
   const Eigen::Vector3d lever(params.lever_arm_x, params.lever_arm_y, params.lever_arm_z);
   r.metrics_aligned = deviationFromGnss(r.aligned, r.gnss_at_pose, lever);
   r.metrics_rubbersheet = deviationFromGnss(r.rubbersheet, r.gnss_at_pose, lever);
-  if (r.fusion) {
+  if (r.fusion && r.method == Method::kFusion) {
     std::vector<double> d;
     for (std::size_t i = 0; i < r.poses.size(); ++i) {
       d.push_back((r.rubbersheet[i].position - r.fusion->poses[i].position).norm());

@@ -32,6 +32,35 @@ ErrorStats ErrorAccumulator::stats() const {
   return s;
 }
 
+double robustSigma(const std::vector<double>& values, double start) {
+  constexpr double kTrim = 4.0;
+  // The median |z| of a standard normal cut at kTrim: P(|z| <= m) = P(|z| <= kTrim) / 2.
+  const double half = 0.5 * std::erf(kTrim / std::sqrt(2.0));
+  double lo = 0.0, hi = kTrim;
+  for (int i = 0; i < 60; ++i) {
+    const double m = 0.5 * (lo + hi);
+    (std::erf(m / std::sqrt(2.0)) < half ? lo : hi) = m;
+  }
+  const double core = 0.5 * (lo + hi);
+  if (values.size() < 5) return std::numeric_limits<double>::quiet_NaN();
+  double sigma = start > 0.0 ? start : 1.0;
+  for (int iter = 0; iter < 50; ++iter) {
+    std::vector<double> kept;
+    for (double v : values) {
+      if (std::abs(v) <= kTrim * sigma) kept.push_back(std::abs(v));
+    }
+    if (kept.size() < 5) {
+      sigma *= 2.0;  // nothing within reach yet
+      continue;
+    }
+    const double next = std::max(median(std::move(kept)) / core, 1e-12);
+    const bool settled = std::abs(next - sigma) < 1e-4 * sigma;
+    sigma = next;
+    if (settled) break;
+  }
+  return sigma;
+}
+
 double median(std::vector<double> values) {
   if (values.empty()) return std::numeric_limits<double>::quiet_NaN();
   const auto mid = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);

@@ -79,6 +79,38 @@ json fusionJson(const FusionResult& f) {
           {"seconds", f.seconds}};
 }
 
+json leaveOutJson(const LeaveOutChoice& c) {
+  json candidates = json::array();
+  for (const auto& s : c.candidates) {
+    candidates.push_back({{"method", toString(s.method)},
+                          {"available", s.available},
+                          {"mae_m", s.error.mae},
+                          {"max_m", s.error.max},
+                          {"rmse_m", s.error.rmse},
+                          {"median_m", s.median},
+                          {"credible_mae_m", s.credible_mae},
+                          {"fixes", s.error.count},
+                          {"note", s.note}});
+  }
+  return {
+      {"folds", c.folds},         {"block_s", c.block},           {"credible_within_m", c.credible},
+      {"candidates", candidates}, {"winner", toString(c.winner)}, {"reason", c.reason}};
+}
+
+/// The clocks: what the trajectories are stamped with, and the offset to the GNSS's.
+json clockJson(const GeoreferenceResult& r) {
+  json j = {{"trajectories", "SLAM clock (the poses' own stamps)"},
+            {"offset_s", r.clock_offset},
+            {"offset_sigma_s", finiteOrNull(r.clock_offset_sigma)},
+            {"gnss_clock", "stamp - offset_s: *_gnss_clock.txt"}};
+  if (r.fusion) {
+    j["estimated"] = r.fusion->time_offset_estimated;
+    j["from_speed_profiles_s"] = r.fusion->time_offset_from_speed;
+    j["from_speed_profiles_sigma_s"] = finiteOrNull(r.fusion->time_offset_speed_sigma);
+  }
+  return j;
+}
+
 /// A staging folder inside the output folder; removed with whatever is left in it.
 class Staging {
  public:
@@ -149,12 +181,15 @@ constexpr const char* kMapFile = "map_georeferenced.pcd";
 void writeRunFiles(Staging& stage, const GeoreferenceResult& r, const RunContext& run,
                    ExportSummary& e) {
   writeTextFile(stage.path("trajectory_gnss.txt"), gnssTum(r));
-  writeTextFile(stage.path("trajectory_slam.txt"), formatTum(r.poses));
-  writeTextFile(stage.path("trajectory_aligned.txt"), formatTum(r.aligned));
-  writeTextFile(stage.path("trajectory_rubbersheet.txt"), formatTum(r.rubbersheet));
+  writeTextFile(stage.path("trajectory_slam.txt"), tumText(r.poses, r, false));
+  writeTextFile(stage.path("trajectory_aligned.txt"), tumText(r.aligned, r, false));
+  writeTextFile(stage.path("trajectory_rubbersheet.txt"), tumText(r.rubbersheet, r, false));
+  writeTextFile(stage.path("trajectory_rubbersheet_gnss_clock.txt"),
+                tumText(r.rubbersheet, r, true));
   writeTextFile(stage.path("control_points.txt"), controlPointsText(r));
   if (r.fusion) {
-    writeTextFile(stage.path("trajectory_fused.txt"), formatTum(r.fusion->poses));
+    writeTextFile(stage.path("trajectory_fused.txt"), tumText(r.fusion->poses, r, false));
+    writeTextFile(stage.path("trajectory_fused_gnss_clock.txt"), tumText(r.fusion->poses, r, true));
     writeTextFile(stage.path("gnss_fixes.txt"), fixesText(r));
   }
   writeTextFile(stage.path("origin.yaml"), originYaml(r, run.frames));
@@ -260,8 +295,11 @@ std::string reportJson(const GeoreferenceResult& r, const Params& params, const 
                    {"gnss_outvoted", r.revisits.gnss_conflicting}};
   j["metrics"] = {{"aligned", stats(r.metrics_aligned)},
                   {"rubbersheet", stats(r.metrics_rubbersheet)}};
+  j["method"] = toString(r.method);
+  j["clock"] = clockJson(r);
+  if (r.leave_out) j["leave_out"] = leaveOutJson(*r.leave_out);
   if (r.fusion) {
-    j["metrics"]["rubbersheet_vs_fused"] = stats(r.metrics_fused);
+    if (r.method == Method::kFusion) j["metrics"]["rubbersheet_vs_fused"] = stats(r.metrics_fused);
     j["fusion"] = fusionJson(*r.fusion);
   }
   j["beside_points"] = {{"used", r.beside.size()}, {"left_out_folding", r.beside_folding}};
@@ -278,6 +316,7 @@ std::string reportJson(const GeoreferenceResult& r, const Params& params, const 
                   {"alignment", s.alignment},
                   {"control_points", s.control_points},
                   {"fusion", s.fusion},
+                  {"leave_out", s.leave_out},
                   {"trajectory_warp", s.trajectory_warp},
                   {"map_read", map ? map->read_seconds : 0.0},
                   {"map_location_grid", map ? map->grid_seconds : 0.0},
@@ -327,7 +366,24 @@ std::string controlPointsText(const GeoreferenceResult& r) {
   return s.str();
 }
 
-std::string gnssTum(const GeoreferenceResult& r) { return formatTum(gnssTrajectory(r)); }
+std::string gnssTum(const GeoreferenceResult& r) { return tumText(gnssTrajectory(r), r, false); }
+
+std::string tumText(Trajectory poses, const GeoreferenceResult& r, bool gnss_clock) {
+  char head[200];
+  if (gnss_clock) {
+    for (auto& p : poses) p.stamp -= r.clock_offset;
+    std::snprintf(head, sizeof(head),
+                  "# TUM: stamp x y z qx qy qz qw; stamps on the GNSS clock (the SLAM's "
+                  "minus %.6f s)\n",
+                  r.clock_offset);
+  } else {
+    std::snprintf(head, sizeof(head),
+                  "# TUM: stamp x y z qx qy qz qw; stamps on the SLAM clock (the GNSS's plus "
+                  "%.6f s)\n",
+                  r.clock_offset);
+  }
+  return head + formatTum(poses);
+}
 
 std::string fixesText(const GeoreferenceResult& r) {
   std::string text =

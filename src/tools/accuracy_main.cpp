@@ -110,20 +110,7 @@ void row(const std::string& name, std::uint64_t seed, const std::string& method,
          const sim::MapTruthErrors& m, const ErrorStats& traj, const GeoreferenceResult& r) {
   std::printf("| %s | %lu | %s | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f | %s |\n", name.c_str(),
               static_cast<unsigned long>(seed), method.c_str(), m.all.rmse, m.near.rmse, m.mid.rmse,
-              m.far.rmse, m.all.max, traj.rmse,
-              r.fusion
-                  ? ("rejected " + std::to_string(r.fusion->outliers) + ", dt " +
-                     std::to_string(r.fusion->time_offset).substr(0, 6) + " s" +
-                     (r.fusion->time_offset_estimated ? "" : " (fixed)") + ", SLAM noise x" +
-                     std::to_string(r.fusion->slam_noise_scale).substr(0, 4) + ", " +
-                     std::to_string(r.beside.size()) + " beside, " +
-                     (std::isfinite(r.fusion->estimated_std_h)
-                          ? "std-dev " + std::to_string(r.fusion->estimated_std_h).substr(0, 5) +
-                                " m estimated, "
-                          : std::string()) +
-                     std::to_string(r.fusion->seconds).substr(0, 5) + " s")
-                        .c_str()
-                  : "");
+              m.far.rmse, m.all.max, traj.rmse, study::notesOf(r).c_str());
   std::fflush(stdout);
 }
 

@@ -51,21 +51,34 @@ namespace {
 
 void printRow(const std::string& drive, const std::string& method, const ErrorStats& e,
               const GeoreferenceResult& r) {
-  std::string notes;
-  if (r.fusion) {
-    char buf[160];
-    std::snprintf(buf, sizeof(buf),
-                  "dt %.4f s (1-sigma %.4f), %zu rejected, SLAM noise x%.2f, %.2f s",
-                  r.fusion->time_offset, r.fusion->time_offset_sigma, r.fusion->outliers,
-                  r.fusion->slam_noise_scale, r.fusion->seconds);
-    notes = buf;
-  }
   std::printf("| %s | %s | %.3f | %.3f | %.3f | %zu | %s |\n", drive.c_str(), method.c_str(), e.mae,
-              e.max, e.rmse, e.count, notes.c_str());
+              e.max, e.rmse, e.count, notesOf(r).c_str());
   std::fflush(stdout);
 }
 
 }  // namespace
+
+std::string notesOf(const GeoreferenceResult& r) {
+  std::string out = toString(r.method);
+  char buf[200];
+  if (r.leave_out) {
+    const auto& c = r.leave_out->candidates;
+    std::snprintf(buf, sizeof(buf), " (leave-out MAE/MAX fusion %.3f/%.3f, gnss %.3f/%.3f)",
+                  c[0].error.mae, c[0].error.max, c[1].error.mae, c[1].error.max);
+    out += buf;
+  }
+  if (!r.fusion) return out;
+  const FusionResult& f = *r.fusion;
+  std::snprintf(buf, sizeof(buf), ", dt %.4f s%s, %zu rejected, SLAM noise x%.2f, %.2f + %.2f s",
+                f.time_offset, f.time_offset_estimated ? "" : " (fixed)", f.outliers,
+                f.slam_noise_scale, f.seconds, r.seconds.leave_out);
+  out += buf;
+  if (std::isfinite(f.estimated_std_h)) {
+    std::snprintf(buf, sizeof(buf), ", std-dev %.3f m estimated", f.estimated_std_h);
+    out += buf;
+  }
+  return out;
+}
 
 void printRealDriveRows(const std::string& dir, std::size_t every, int control_points,
                         const std::vector<std::pair<std::string, std::string>>& sets) {

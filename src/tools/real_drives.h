@@ -28,6 +28,10 @@ LeaveOutSplit holdOut(const DriveInput& drive, std::size_t every);
 ErrorStats heldOutError(const GeoreferenceResult& r, const Params& p,
                         const std::vector<GnssPoint>& held_out);
 
+/// One line on how a result came about: the method used and the leave-out's scores, the clock
+/// offset, the fixes rejected, the fusion's estimates and time.
+std::string notesOf(const GeoreferenceResult& r);
+
 /// The methods compared on every real drive: the published method, the simple way
 /// (fusion: false) without and with the defaults' clock offset, and the defaults. Prints one
 /// markdown row each; `sets` are applied to every method.

@@ -285,11 +285,16 @@ TEST(A2rl, LeaveOutDeviation) {
   EXPECT_GE(h.all.size(), 238u);  // of 239: the last lies past the poses' end
   EXPECT_TRUE(f.time_offset_estimated);
   EXPECT_NEAR(dt, 0.095, 0.015);
+  EXPECT_LT(f.time_offset_sigma, 0.002);          // the fusion's own 1-sigma of it
   EXPECT_TRUE(std::isfinite(f.estimated_std_h));  // the file gives no std-devs
   EXPECT_LT(f.gnss_roughness_h, 0.02);            // RTK: a centimetre at most
-  // The inliers stay further from the fused trajectory than their roughness allows: the SLAM
-  // noise is raised (x1.8).
-  EXPECT_GT(f.slam_noise_scale, 1.5);
+  // The choice of method: both scored on stretches of 25 s held out; the fusion bridges them
+  // far better (median 0.26 against 0.41 m), the GNSS control points are closer only in the
+  // disputed stretch, which no fix of either side can settle.
+  ASSERT_TRUE(r.leave_out);
+  EXPECT_EQ(r.method, Method::kFusion);
+  EXPECT_TRUE(r.leave_out->candidates[1].available);
+  EXPECT_LT(r.leave_out->candidates[0].median, r.leave_out->candidates[1].median);
   // This SLAM's z jitters from pose to pose (doc/ACCURACY.md): a tenth of a metre.
   EXPECT_GT(f.slam_jitter_v, 0.05);
   EXPECT_LT(f.slam_jitter_h, 0.02);
@@ -306,16 +311,15 @@ TEST(A2rl, LeaveOutDeviation) {
   EXPECT_LT(gdo.mae, go.mae);
   EXPECT_LT(gdo.max, go.max);
 
-  // The figures for this drive at 200 control points (MAE 0.153 m, MAX 0.658 m): the
-  // defaults keep them, and beat the published method's way (0.148 / 0.640 m) on both.
-  EXPECT_LT(o.mae, 0.153);  // 0.136 m
-  EXPECT_LT(o.max, 0.658);  // 0.626 m
+  // Outside the disputed stretch the defaults beat the published method's way (0.148 / 0.640
+  // m) in MAE; their MAX (0.698 m) is 9 % above its (doc/ACCURACY.md, the real drives).
+  EXPECT_LT(o.mae, 0.135);  // 0.122 m
   EXPECT_LT(o.mae, go.mae);
-  EXPECT_LT(o.max, go.max);
-  EXPECT_LT(ft.mae, 0.1);  // 0.087 m
+  EXPECT_LT(o.max, 0.75);
+  EXPECT_LT(ft.mae, 0.105);  // 0.095 m
   // The stops no longer stand out (without the offset the fusion's largest deviations, 0.9 m,
   // lay within 8 poses of them).
-  EXPECT_LT(errorStats(h.near_stops).max, 0.5);  // 0.361 m
+  EXPECT_LT(errorStats(h.near_stops).max, 0.55);  // 0.452 m
 
   // The offset is what moved them: the fusion without it (max_time_offset 0).
   Params fixed = forThisData(true);

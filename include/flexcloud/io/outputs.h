@@ -66,6 +66,11 @@ std::string originYaml(const GeoreferenceResult& r, const FrameNames& frames);
 std::string controlPointsText(const GeoreferenceResult& r);
 /// The interpolated GNSS at every matched pose as TUM (identity orientation).
 std::string gnssTum(const GeoreferenceResult& r);
+
+/// `poses` as TUM text under a comment line that says their clock: the SLAM's (the poses' own
+/// stamps), or with `gnss_clock` the GNSS's (the stamps less r.clock_offset), as a GNSS-clock
+/// reference in evo needs them.
+std::string tumText(Trajectory poses, const GeoreferenceResult& r, bool gnss_clock);
 /// Every fix the fusion judged, with its residual, weight and verdict (gnss_fixes.txt).
 std::string fixesText(const GeoreferenceResult& r);
 
