@@ -73,7 +73,7 @@ if [ "${sanitize}" = 1 ]; then
   # the real drive's study (A2rl.*: a minute under ASan, the fusion's code the BadInput and
   # SimulatedDrive tests take through it too). The unit and end-to-end binaries run side by side.
   SANITIZE_FILTER="-Targets/Accuracy.*:AccuracyMore.*:SimulatedDrive.*OfTheTruth:A2rl.*"
-  SANITIZE_FILTER+=":Tools.AsciiMaps*:Tools.CompressedMaps*"
+  SANITIZE_FILTER+=":Tools.AsciiMaps*:Tools.CompressedMaps*:Scenarios/SlamFailures.*"
   for t in flexcloud_unit_tests flexcloud_e2e_tests; do
     log "running ${t} under AddressSanitizer and UndefinedBehaviorSanitizer"
     (ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \

@@ -20,10 +20,11 @@ struct PointPair {
   std::size_t pose_index = 0;  ///< the control point it belongs to
 };
 
-/// The points beside and above each control point. An offset point is left out where another
-/// part of the route lies nearer to it than 0.7 times its offset (another pass, the inside of a
-/// tight curve): there the correction of that other part applies, and two targets for one
-/// place would fold the sheet. Control points at poses where `steady` is false (the SLAM
+/// The points beside and above each control point. Where another part of the route lies nearer
+/// to an offset point than 0.7 times its offset (another pass, the inside of a tight curve), the
+/// point moves in, halving its offset, until none does (or is left out below 1.5 m): the space
+/// between two passes is shared, each pass keeping its own correction up to near halfway, and
+/// no place gets two targets. Control points at poses where `steady` is false (the SLAM
 /// wrong from pose to pose there: its orientation at one pose says little of the map beside
 /// it) get none; an empty `steady` holds everywhere.
 std::vector<PointPair> besidePoints(const ControlPointSelection& cps, const Trajectory& slam,
@@ -33,8 +34,15 @@ std::vector<PointPair> besidePoints(const ControlPointSelection& cps, const Traj
 /// Indices (into `pairs`) of the points that are vertices of tetrahedra the sheet turns inside
 /// out or squeezes flat (determinant of the linear part below 0.2). The sheet's sources are
 /// the pairs' sources moved by `input_to_source` (the frame the sheet triangulates in).
+/// `vertex_arc` (may be empty) gives, per vertex of the sheet, the path (m) of the pose it
+/// belongs to, NaN for none: a tetrahedron whose vertices belong to poses more than `pass_gap`
+/// of path apart spans two passes that the SLAM put apart and the targets bring together
+/// (an unclosed loop); it must fold, and keeps its points, which hold each pass's map to its
+/// own correction.
 std::vector<std::size_t> foldingPoints(const RubberSheet& sheet,
                                        const std::vector<PointPair>& pairs,
-                                       const Eigen::Isometry3d& input_to_source);
+                                       const Eigen::Isometry3d& input_to_source,
+                                       const std::vector<double>& vertex_arc = {},
+                                       double pass_gap = 0.0);
 
 }  // namespace flexcloud

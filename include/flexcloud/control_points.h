@@ -23,6 +23,9 @@ struct ControlPointSelection {
   std::size_t replaced = 0;  ///< nominal pose unusable, a neighbour in its stretch taken instead
   std::size_t skipped = 0;   ///< no usable pose in the whole stretch
   std::size_t merged = 0;    ///< same pose as another control point (more asked than poses)
+  /// Beyond those asked for: where the sheet carried a pose more than 5 cm from its fused pose
+  /// (buildFaithfulSheet(), with the fusion).
+  std::size_t added = 0;
 };
 
 /// True when the GNSS at a pose may be a control point: matched, std-dev within the threshold,

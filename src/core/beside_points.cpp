@@ -1,6 +1,7 @@
 #include "flexcloud/beside_points.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <set>
 
@@ -9,6 +10,8 @@
 
 namespace flexcloud {
 namespace {
+
+constexpr double kLeastBeside = 1.5;  // m: a point beside nearer its pass than this is no help
 
 /// Nearest-neighbour queries on the SLAM positions through a hash grid.
 class PositionGrid {
@@ -81,18 +84,41 @@ std::vector<PointPair> besidePoints(const ControlPointSelection& cps, const Traj
     if (above > 0.0) offsets.push_back({0.0, 0.0, above});
     const Eigen::Isometry3d s = isometry(slam[cp.pose_index]);
     const Eigen::Isometry3d f = isometry(fused[cp.pose_index]);
-    for (const auto& o : offsets) {
-      const Eigen::Vector3d source = s * o;
-      if (grid.anyWithin(source, 0.7 * o.norm())) continue;
-      out.push_back({source, f * o, cp.pose_index});
+    for (const auto& full : offsets) {
+      // Where another pass lies near, the point moves in towards its own pass (halving its
+      // offset, down to kLeastBeside): each pass keeps its own correction up to near halfway.
+      for (Eigen::Vector3d o = full; o.norm() >= kLeastBeside; o *= 0.5) {
+        const Eigen::Vector3d source = s * o;
+        if (grid.anyWithin(source, 0.7 * o.norm())) continue;
+        out.push_back({source, f * o, cp.pose_index});
+        break;
+      }
     }
   }
   return out;
 }
 
+namespace {
+
+/// Whether the tetrahedron's vertices belong to poses more than pass_gap of path apart.
+bool spansPasses(const std::array<int, 4>& tet, const std::vector<double>& vertex_arc,
+                 double pass_gap) {
+  if (vertex_arc.empty()) return false;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (int v : tet) {
+    const double a = vertex_arc[static_cast<std::size_t>(v)];
+    if (std::isnan(a)) continue;
+    lo = std::min(lo, a), hi = std::max(hi, a);
+  }
+  return hi - lo > pass_gap;
+}
+
+}  // namespace
+
 std::vector<std::size_t> foldingPoints(const RubberSheet& sheet,
                                        const std::vector<PointPair>& pairs,
-                                       const Eigen::Isometry3d& input_to_source) {
+                                       const Eigen::Isometry3d& input_to_source,
+                                       const std::vector<double>& vertex_arc, double pass_gap) {
   constexpr double kSame = 1e-6;  // m
   CellMap<std::vector<std::size_t>> where;
   std::vector<Eigen::Vector3d> moved(pairs.size());
@@ -104,7 +130,7 @@ std::vector<std::size_t> foldingPoints(const RubberSheet& sheet,
   const auto& tets = sheet.tetrahedra();
   for (std::size_t t = 0; t < tets.size(); ++t) {
     const double det = sheet.affineAt({static_cast<int>(t), false}).leftCols<3>().determinant();
-    if (det >= 0.2) continue;
+    if (det >= 0.2 || spansPasses(tets[t], vertex_arc, pass_gap)) continue;
     for (int v : tets[t]) {
       const Eigen::Vector3d& s = sheet.sources()[static_cast<std::size_t>(v)];
       const auto it = where.find(cellOf(s, 1.0));

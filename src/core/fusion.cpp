@@ -34,6 +34,7 @@ constexpr double kUnknownStdStart = 1.0;  // m, first guess for fixes without a 
 // ../shared/data/a2rl gives 1.8); rounds of raising it.
 constexpr double kStiffSlam = 1.5;
 constexpr int kNoiseRounds = 2;
+constexpr double kMostNoiseStep = 2.0;
 constexpr double kMinOffsetSigma = 0.005;    // s, tightest the speed profiles hold the offset
 constexpr double kRestampTolerance = 0.001;  // s: a remainder beyond restamps the fixes
 constexpr int kRestampRounds = 2;
@@ -457,7 +458,10 @@ class Fusion {
       const double stiff = stiffness();
       const double most = params_.max_slam_noise_scale;
       if (!(stiff > kStiffSlam) || out_.slam_noise_scale >= most) return;
-      out_.slam_noise_scale = std::min(most, out_.slam_noise_scale * stiff);
+      // A step of at most kMostNoiseStep per round: a large ratio says as much of errors of the
+      // GNSS that are smooth (multipath, which no roughness shows) as of the SLAM's.
+      out_.slam_noise_scale =
+          std::min(most, out_.slam_noise_scale * std::min(stiff, kMostNoiseStep));
       noise_ = noiseOf(params_, out_.slam_noise_scale);
       makeKeyframes(start_);
       dt_ = 0.0;

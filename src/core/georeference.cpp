@@ -1,6 +1,7 @@
 #include "flexcloud/georeference.h"
 
 #include <Eigen/SVD>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -111,9 +112,9 @@ Alignment alignToFused(const Trajectory& poses, const Trajectory& fused) {
   return {umeyama(src, dst, w, false).rigid(), umeyama(src, dst, w, true).scale};
 }
 
-/// The fused position at every pose inside the time span of the fixes the fusion used (the
-/// control points' targets); nothing elsewhere.
-std::vector<std::optional<GnssPoint>> fusedTargets(const FusionResult& f) {
+/// The fused position at every pose inside the time span of the fixes the fusion used, widened
+/// by `margin` seconds (the control points' targets); nothing elsewhere.
+std::vector<std::optional<GnssPoint>> fusedTargets(const FusionResult& f, double margin = 0.0) {
   double first = std::numeric_limits<double>::infinity(), last = -first;
   for (const auto& o : f.fixes) {
     if (o.verdict != FixVerdict::kUsed) continue;
@@ -121,7 +122,7 @@ std::vector<std::optional<GnssPoint>> fusedTargets(const FusionResult& f) {
   }
   std::vector<std::optional<GnssPoint>> out(f.poses.size());
   for (std::size_t i = 0; i < f.poses.size(); ++i) {
-    if (f.poses[i].stamp < first || f.poses[i].stamp > last) continue;
+    if (f.poses[i].stamp < first - margin || f.poses[i].stamp > last + margin) continue;
     GnssPoint g;
     g.stamp = f.poses[i].stamp;
     g.position = f.poses[i].position;
@@ -215,6 +216,51 @@ void matchGnss(const Params& params, GeoreferenceResult& r) {
 
 }  // namespace
 
+namespace {
+
+/// A stretch of fixes the fusion rejected although they claimed RTK precision.
+struct FalseRtk {
+  double begin = 0.0, end = 0.0, worst = 0.0;
+  std::size_t fixes = 0;
+};
+
+/// Stretches of at least kFalseRtkSeconds and kFalseRtkFixes consecutive fixes (of those that
+/// took part) that the fusion rejected while their std-dev claimed under kRtkStd: multipath or
+/// a false RTK fix, the longest first.
+std::vector<FalseRtk> falseRtkStretches(const FusionResult& f) {
+  constexpr double kRtkStd = 0.05, kFalseRtkSeconds = 3.0;
+  constexpr std::size_t kFalseRtkFixes = 5;
+  std::vector<const FixOutcome*> fixes;
+  for (const auto& o : f.fixes) {
+    if (o.verdict == FixVerdict::kUsed || o.verdict == FixVerdict::kOutlier) fixes.push_back(&o);
+  }
+  std::sort(fixes.begin(), fixes.end(),
+            [](const FixOutcome* a, const FixOutcome* b) { return a->stamp < b->stamp; });
+  std::vector<FalseRtk> out;
+  FalseRtk run;
+  auto close = [&] {
+    if (run.fixes >= kFalseRtkFixes && run.end - run.begin >= kFalseRtkSeconds) out.push_back(run);
+    run = FalseRtk{};
+  };
+  for (const FixOutcome* o : fixes) {
+    const bool claims_rtk = o->std_dev.allFinite() && o->std_dev.head<2>().norm() < kRtkStd;
+    if (o->verdict != FixVerdict::kOutlier || !claims_rtk) {
+      close();
+      continue;
+    }
+    if (run.fixes == 0) run.begin = o->stamp;
+    run.end = o->stamp;
+    run.worst = std::max(run.worst, o->residual);
+    ++run.fixes;
+  }
+  close();
+  std::sort(out.begin(), out.end(),
+            [](const FalseRtk& a, const FalseRtk& b) { return a.end - a.begin > b.end - b.begin; });
+  return out;
+}
+
+}  // namespace
+
 std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Params& params,
                                         const WarpStats* map) {
   std::vector<std::string> out;
@@ -239,9 +285,24 @@ std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Param
     s << r.revisits.conflicting << " control point pairs revisit places that the SLAM map puts "
       << "elsewhere on another pass (up to " << r.revisits.worst << " m) while the "
       << (r.method == Method::kFusion ? "fused trajectory" : "GNSS")
-      << " puts them together: the SLAM is at fault there; close those loops in the SLAM, no "
-         "warp can merge ghosted passes";
+      << " puts them together: the SLAM is at fault there (a loop it never closed, or passes "
+         "its loop closure did not merge); each pass keeps its own correction, but map points "
+         "between the passes belong to both: close those loops in the SLAM";
     out.push_back(s.str());
+  }
+  if (r.fusion) {
+    const std::vector<FalseRtk> runs = falseRtkStretches(*r.fusion);
+    for (std::size_t k = 0; k < runs.size() && k < 3; ++k) {
+      std::ostringstream s;
+      s.setf(std::ios::fixed);
+      s.precision(1);
+      s << "GNSS from " << runs[k].begin << " to " << runs[k].end << " s (" << runs[k].fixes
+        << " fixes) claimed RTK precision (std-dev under 5 cm) while up to " << runs[k].worst
+        << " m off the fused trajectory: multipath or a false RTK fix, not a SLAM error; "
+           "those fixes were left out";
+      if (k == 2 && runs.size() > 3) s << " (and " << runs.size() - 3 << " more such stretches)";
+      out.push_back(s.str());
+    }
   }
   return out;
 }
@@ -316,11 +377,19 @@ void sheetFromFusion(const Params& params, const CancelToken& cancel, const Leav
   for (std::size_t i = 0; i < steady.size(); ++i) {
     steady[i] = r.fusion->detail_gain[i] <= kSteadyGain;
   }
-  const SheetWithBeside s = buildSheetWithBeside(r.control_points, r.poses, r.fusion->poses,
-                                                 r.T_enu_map, r.cuboid_enu, params, steady);
+  // The sheet follows the fused trajectory to its last poses, a little beyond the fixes too.
+  constexpr double kFaithfulMargin = 2.0;  // s
+  const std::vector<std::optional<GnssPoint>> faithful = fusedTargets(*r.fusion, kFaithfulMargin);
+  std::vector<bool> reach(r.poses.size());
+  for (std::size_t i = 0; i < reach.size(); ++i) {
+    reach[i] = isUsableGnss(faithful[i], r.poses[i].stamp, params);
+  }
+  const SheetWithBeside s = buildFaithfulSheet(r.control_points, r.poses, r.fusion->poses, faithful,
+                                               reach, r.T_enu_map, r.cuboid_enu, params, steady);
   r.sheet = s.sheet;
   r.beside = s.beside;
   r.beside_folding = s.folding;
+  r.control_points.added = s.added;
 }
 
 }  // namespace

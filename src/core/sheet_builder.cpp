@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "flexcloud/metrics.h"
 #include "flexcloud/trajectory.h"
 #include "sheet_fit.h"
 
@@ -11,6 +12,35 @@ namespace flexcloud {
 namespace {
 
 constexpr double kMinRefineDeviation = 1e-3;  // m: a deviation below this needs no control point
+// Vertices of poses more than this many section sizes of path apart belong to different passes.
+constexpr double kPassGapSizes = 8.0;
+// m: a pose the sheet carries further than this from its fused pose gets a control point of
+// its own, for at most this many rounds.
+constexpr double kFaithful = 0.05;
+constexpr int kFaithfulRounds = 3;
+constexpr double kFaithfulSeparation = 0.05;
+constexpr double kBreakMedians = 10.0;
+
+/// Path (m) beyond which the vertices of two poses belong to different passes.
+double passGap(const Params& params) {
+  return kPassGapSizes * std::max(params.beside_distance, params.above_height);
+}
+
+/// Per vertex of the sheet, the path (m) of the pose it belongs to: the control points', then
+/// the points beside them, NaN for the cuboid's corners; empty where the sheet merged vertices
+/// (the order then no longer tells which is which).
+std::vector<double> vertexArcs(const RubberSheet& sheet, const ControlPointSelection& cps,
+                               const std::vector<PointPair>& beside,
+                               const std::vector<double>& arc) {
+  if (sheet.merged() != 0 || sheet.sources().size() != cps.points.size() + beside.size() + 8) {
+    return {};
+  }
+  std::vector<double> out;
+  for (const auto& cp : cps.points) out.push_back(arc[cp.pose_index]);
+  for (const auto& b : beside) out.push_back(arc[b.pose_index]);
+  out.resize(sheet.sources().size(), std::numeric_limits<double>::quiet_NaN());
+  return out;
+}
 
 /// Deviation (m) of each usable pose, warped by the sheet, from its GNSS; NaN elsewhere.
 std::vector<double> sheetDeviation(const RubberSheet& sheet, const Trajectory& poses,
@@ -137,11 +167,14 @@ SheetWithBeside buildSheetWithBeside(const ControlPointSelection& cps, const Tra
                                      const std::vector<bool>& steady) {
   SheetWithBeside out;
   out.beside = besidePoints(cps, slam, fused, params.beside_distance, params.above_height, steady);
+  const std::vector<double> arc = arcLength(positionsOf(slam));
+  const double pass_gap = passGap(params);
   for (int round = 0;; ++round) {
     const auto through = buildSheet(cps, out.beside, T_enu_map, cuboid);
     const auto move = fitSheetTargets(*through, cps, out.beside, slam, fused);
     out.sheet = movedSheet(cps, out.beside, move, T_enu_map, cuboid);
-    const std::vector<std::size_t> bad = foldingPoints(*out.sheet, out.beside, T_enu_map);
+    const std::vector<std::size_t> bad = foldingPoints(
+        *out.sheet, out.beside, T_enu_map, vertexArcs(*out.sheet, cps, out.beside, arc), pass_gap);
     if (bad.empty() || round == 3) break;
     std::vector<PointPair> kept;
     std::size_t b = 0;
@@ -156,6 +189,37 @@ SheetWithBeside buildSheetWithBeside(const ControlPointSelection& cps, const Tra
     out.beside.swap(kept);
   }
   return out;
+}
+
+SheetWithBeside buildFaithfulSheet(ControlPointSelection& cps, const Trajectory& slam,
+                                   const Trajectory& fused,
+                                   const std::vector<std::optional<GnssPoint>>& targets,
+                                   const std::vector<bool>& usable,
+                                   const Eigen::Isometry3d& T_enu_map, const Cuboid& cuboid,
+                                   const Params& params, const std::vector<bool>& steady) {
+  const std::vector<double> arc = arcLength(positionsOf(slam));
+  // Added control points keep 5 cm of path from their neighbours: where the car stops, the
+  // last poses lie a few centimetres apart.
+  const double separation = kFaithfulSeparation;
+  std::size_t added = 0;
+  for (int round = 0;; ++round) {
+    SheetWithBeside out = buildSheetWithBeside(cps, slam, fused, T_enu_map, cuboid, params, steady);
+    out.added = added;
+    if (round == kFaithfulRounds) return out;
+    const std::vector<double> deviation = sheetDeviation(*out.sheet, slam, targets, usable);
+    // A break, not the sheet's resolution (which the number of control points asked for sets):
+    // beyond kFaithful and beyond kBreakMedians times the typical deviation.
+    std::vector<double> finite;
+    for (double d : deviation) {
+      if (std::isfinite(d)) finite.push_back(d);
+    }
+    if (finite.empty()) return out;
+    const double least = std::max(kFaithful, kBreakMedians * median(finite));
+    const auto picks = pickRefinements(cps, deviation, arc, separation, cps.points.size(), least);
+    if (picks.empty()) return out;
+    addControlPoints(cps, picks, slam, targets);
+    added += picks.size();
+  }
 }
 
 }  // namespace flexcloud

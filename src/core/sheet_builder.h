@@ -47,10 +47,24 @@ struct SheetWithBeside {
   std::shared_ptr<const RubberSheet> sheet;
   std::vector<PointPair> beside;
   std::size_t folding = 0;  ///< beside points left out because they folded the sheet
+  std::size_t added = 0;    ///< control points added where the sheet left the fused trajectory
 };
 SheetWithBeside buildSheetWithBeside(const ControlPointSelection& cps, const Trajectory& slam,
                                      const Trajectory& fused, const Eigen::Isometry3d& T_enu_map,
                                      const Cuboid& cuboid, const Params& params,
                                      const std::vector<bool>& steady);
+
+/// buildSheetWithBeside(), then control points added (to `cps`) at the poses the sheet carries
+/// far from their fused pose (beyond 5 cm and ten times the typical deviation: a break, not the
+/// sheet's resolution), the sheet built again, for a few rounds: where the SLAM holds one place
+/// twice, apart (an unclosed loop, a crossing), a pose between its own control points may lie
+/// in a tetrahedron of the other pass, and only a control point of its own keeps it.
+/// `targets` and `usable` as for chooseControlPoints().
+SheetWithBeside buildFaithfulSheet(ControlPointSelection& cps, const Trajectory& slam,
+                                   const Trajectory& fused,
+                                   const std::vector<std::optional<GnssPoint>>& targets,
+                                   const std::vector<bool>& usable,
+                                   const Eigen::Isometry3d& T_enu_map, const Cuboid& cuboid,
+                                   const Params& params, const std::vector<bool>& steady);
 
 }  // namespace flexcloud

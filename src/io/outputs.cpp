@@ -282,6 +282,7 @@ std::string reportJson(const GeoreferenceResult& r, const Params& params, const 
       {"control_points_replaced", cp.replaced},
       {"control_points_skipped", cp.skipped},
       {"control_points_merged", cp.merged + (r.sheet ? r.sheet->merged() : 0)},
+      {"control_points_added_to_follow_the_fused_trajectory", cp.added},
       {"tetrahedra", r.sheet ? r.sheet->numTetrahedra() : 0},
       {"tetrahedra_degenerate", r.sheet ? r.sheet->degenerate() : 0},
       {"map_points", map ? map->warp.points : 0},

@@ -36,13 +36,8 @@ ErrorStats heldOutError(const GeoreferenceResult& r, const Params& p,
   const double offset = p.gnss_time_offset + (r.fusion ? r.fusion->time_offset : 0.0);
   const Eigen::Vector3d lever(p.lever_arm_x, p.lever_arm_y, p.lever_arm_z);
   std::vector<double> d;
-  const std::vector<double> all = deviationsAtFixes(r.rubbersheet, held_out, offset, lever);
-  for (std::size_t i = 0; i < all.size(); ++i) {
-    if (!std::isfinite(all[i])) continue;
-    d.push_back(all[i]);
-    if (std::getenv("FLEXCLOUD_STUDY_WORST") &&
-        all[i] > std::atof(std::getenv("FLEXCLOUD_STUDY_WORST")))
-      std::fprintf(stderr, "  held-out %zu stamp %.3f dev %.3f\n", i, held_out[i].stamp, all[i]);
+  for (double x : deviationsAtFixes(r.rubbersheet, held_out, offset, lever)) {
+    if (std::isfinite(x)) d.push_back(x);
   }
   return errorStats(d);
 }

@@ -2,7 +2,9 @@
 #include <gtest/gtest.h>
 
 #include "flexcloud/cloud_warp.h"
+#include "flexcloud/geodesy.h"
 #include "flexcloud/georeference.h"
+#include "flexcloud/sim/scenarios.h"
 #include "flexcloud/sim/sim_cloud.h"
 #include "test_util.h"
 
@@ -175,6 +177,56 @@ TEST(SimulatedDrive, AKeyframedSlamsStopIsNoOutlier) {
   EXPECT_GT(widest, 0.5);  // half the distance between the poses around the stop
   EXPECT_LT(traj.rmse, 0.03);
   EXPECT_LT(m.rmse, 0.06);
+}
+
+/// The drive's fixes as local GNSS in the ENU frame of its datum, moved by `shift` (m).
+std::vector<GnssPoint> localGnss(const sim::SimDrive& d, const Eigen::Vector3d& shift) {
+  const EnuFrame enu(d.datum);
+  std::vector<GnssPoint> out;
+  for (const auto& f : d.fixes) {
+    if (!f.has_fix) continue;
+    GnssPoint g;
+    g.stamp = f.fix.stamp;
+    g.position = enu.toEnu(f.fix.lat, f.fix.lon, f.fix.alt) + shift;
+    g.std_dev = f.fix.std_enu;
+    out.push_back(g);
+  }
+  return out;
+}
+
+/// Local GNSS in UTM-size coordinates gives the result of the same GNSS near its origin, moved
+/// by the same shift, to a millimetre: the trajectories, every control point and the map.
+TEST(SimulatedDrive, TheResultDoesNotDependOnTheOriginOfTheGnssFrame) {
+  const sim::SimDrive d = sim::simulateDrive(sim::scenario("loop_urban", 1, 20000));
+  const Eigen::Vector3d shift(350000.0, 4000000.0, 50.0);
+  DriveInput near, far;
+  near.poses = far.poses = d.slam;
+  near.local_gnss = localGnss(d, Eigen::Vector3d::Zero());
+  far.local_gnss = localGnss(d, shift);
+  const GeoreferenceResult a = georeference(near, Params{});
+  const GeoreferenceResult b = georeference(far, Params{});
+  ASSERT_EQ(a.method, b.method);
+  EXPECT_NEAR(a.clock_offset, b.clock_offset, 1e-6);
+  EXPECT_EQ(a.fusion->outliers, b.fusion->outliers);
+  double worst = 0.0;
+  for (std::size_t i = 0; i < a.rubbersheet.size(); ++i) {
+    worst = std::max(worst, (b.rubbersheet[i].position - shift - a.rubbersheet[i].position).norm());
+    worst =
+        std::max(worst, (b.fusion->poses[i].position - shift - a.fusion->poses[i].position).norm());
+  }
+  ASSERT_EQ(a.control_points.points.size(), b.control_points.points.size());
+  for (std::size_t k = 0; k < a.control_points.points.size(); ++k) {
+    const auto& pa = a.control_points.points[k];
+    const auto& pb = b.control_points.points[k];
+    EXPECT_EQ(pa.pose_index, pb.pose_index);
+    worst = std::max(worst, (pb.target - shift - pa.target).norm());
+  }
+  for (std::size_t i = 0; i < d.map.slam.size(); i += 97) {
+    const Eigen::Vector3d& x = d.map.slam[i];
+    worst = std::max(worst, (b.sheet->transform(x) - shift - a.sheet->transform(x)).norm());
+  }
+  std::printf("GNSS frame moved by (350000, 4000000, 50) m: the result differs by %.2e m\n", worst);
+  EXPECT_LT(worst, 1e-3);
 }
 
 }  // namespace
