@@ -66,8 +66,9 @@ ParamTable<P> makeTable() {
                  "Fuse SLAM and GNSS robustly before choosing control points (false: the "
                  "published method's GNSS at the poses)",
                  live),
-      realRow<P>("fusion_spacing", &P::fusion_spacing, 2.0, 0.1, 1000, "m",
-                 "Path between the keyframes the fusion estimates (grown to at most 4000)"),
+      realRow<P>(
+          "fusion_spacing", &P::fusion_spacing, 8.0, 0.1, 1000, "m",
+          "Path between the keyframes the fusion estimates (grown to at most 1500 keyframes)"),
       realRow<P>("slam_rotation_noise", &P::slam_rotation_noise, 0.2, 0.001, 100, "deg/sqrt(km)",
                  "Random rotation error of the SLAM, beyond a slowly changing drift rate", live),
       realRow<P>("slam_translation_noise", &P::slam_translation_noise, 0.1, 0.0001, 100,

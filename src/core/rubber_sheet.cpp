@@ -142,11 +142,14 @@ void RubberSheet::buildTets(const Eigen::Isometry3d& input_to_source) {
     // Fold the input -> source transform in: input point q lies at input_to_source * q.
     tet.bary = bary * rot;
     tet.v0 = source_to_input * s[v[0]];
-    // Rounding of the barycentric coordinates: the inverse's own (conditioning) and that of
-    // subtracting coordinates of this magnitude; 256 eps of both is a safe bound.
+    // Rounding of the barycentric coordinates: the inverse's own (conditioning), that of
+    // subtracting coordinates of this magnitude, and that of v0, which came back from the
+    // source frame through the alignment (with the GNSS in UTM-size coordinates both are
+    // thousands of kilometres, and v0 keeps their rounding); 256 eps of all is a safe bound.
     const double cond = edges.norm() * bary.norm();
+    const double back = s[v[0]].norm() + input_to_source.translation().norm();
     tet.tolerance = 256.0 * std::numeric_limits<double>::epsilon() *
-                    (cond + bary.norm() * (tet.v0.norm() + longest));
+                    (cond + bary.norm() * (tet.v0.norm() + longest + back));
     affine.leftCols<3>() = linear * rot;
     affine.col(3) = linear * (input_to_source.translation() - s[v[0]]) + d[v[0]];
   }
