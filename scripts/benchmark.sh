@@ -5,4 +5,7 @@ set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 install_deps
 build_workspace
-exec "${FLEXCLOUD_WS}/devel/lib/flexcloud/flexcloud_benchmark" "$@"
+real=()
+a2rl="${FLEXCLOUD_ROOT}/../shared/data/a2rl"
+[ -f "${a2rl}/slam_poses_tum.txt" ] && real=(--real "${a2rl}")
+exec "${FLEXCLOUD_WS}/devel/lib/flexcloud/flexcloud_benchmark" "${real[@]}" "$@"

@@ -44,6 +44,9 @@ markdown table (doc/BENCHMARKS.md).
   --work DIR                  scratch folder (default: the temporary folder)
   --repeat N                  runs per figure, the best counts (default 3)
   --skip-tool                 leave out the whole-tool runs
+  --real DIR                  also a real drive (slam_poses_tum.txt, gnss_local_at_poses.txt;
+                              scripts/benchmark.sh passes ../shared/data/a2rl where it is):
+                              the pipeline without a map, the fusion and the leave-out apart
   --city N                    also a city-size map of N points (default 100000000; 0: none) in
                               random order, 200 control points: the whole tool against a
                               user-space copy of the file (alternating, each after a sync, the
@@ -59,6 +62,7 @@ struct Options {
   int repeat = 3;
   bool tool = true;
   std::size_t city = 100000000;
+  std::string real;
   std::string work = (fs::temp_directory_path() / "flexcloud_benchmark").string();
 };
 
@@ -93,6 +97,8 @@ Options parse(int argc, char** argv) {
       o.city = static_cast<std::size_t>(a.number(f));
     } else if (f == "--skip-tool") {
       o.tool = false;
+    } else if (f == "--real") {
+      o.real = a.text(f);
     } else {
       throw cli::UsageError("unknown option '" + f + "'");
     }
@@ -498,6 +504,27 @@ void oneHourDrive(const Options& o) {
       sim::trajectoryTruthError(r.rubbersheet, d.truth).rmse);
 }
 
+/// The pipeline without a map on a real drive, defaults: the whole, the fusion (its leave-out
+/// folds included) and the choice of method by leave-out.
+void realDrive(const Options& o) {
+  DriveInput in;
+  in.poses = readTumFile(o.real + "/slam_poses_tum.txt");
+  in.local_gnss = readLocalGnssFile(o.real + "/gnss_local_at_poses.txt");
+  Params p;
+  p.threads = o.threads;
+  GeoreferenceResult r;
+  const double s = best(o.repeat, [&] { r = georeference(in, p); });
+  const auto& t = r.seconds;
+  std::printf(
+      "| - | pipeline without map, real drive %s (%zu poses, %zu fixes), defaults | 200 | %.3f s | "
+      "| fusion %.3f s (%d stages, %zu keyframes), leave-out %.3f s, control points %.3f s; "
+      "method %s |\n",
+      fs::path(o.real).filename().c_str(), r.poses.size(), r.gnss.points.size(), s, t.fusion,
+      r.fusion->stages, r.fusion->keyframes, t.leave_out, t.control_points,
+      toString(r.method).c_str());
+  std::fflush(stdout);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -508,6 +535,7 @@ int main(int argc, char** argv) {
     std::printf("| points | what | control points | time | points/s | notes |\n");
     std::printf("|---:|---|---|---:|---:|---|\n");
     oneHourDrive(o);
+    if (!o.real.empty()) realDrive(o);
     for (std::size_t n : o.points) onePointCount(o, n);
     if (o.city > 0) cityMap(o);
     return 0;
