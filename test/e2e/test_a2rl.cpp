@@ -10,21 +10,13 @@
 #include "flexcloud/clock_offset.h"
 #include "flexcloud/georeference.h"
 #include "flexcloud/io/text_io.h"
+#include "real_drive.h"
+#include "real_drives.h"
 
 namespace flexcloud {
 namespace {
 
-/// The data folder: $FLEXCLOUD_A2RL_DIR, or shared/data/a2rl beside the repository.
-std::string findData() {
-  std::vector<std::string> candidates;
-  if (const char* env = std::getenv("FLEXCLOUD_A2RL_DIR")) candidates.emplace_back(env);
-  candidates.emplace_back(std::string(FLEXCLOUD_SOURCE_DIR) + "/../shared/data/a2rl");
-  candidates.emplace_back("/work/shared/data/a2rl");
-  for (const auto& c : candidates) {
-    if (std::filesystem::exists(c + "/slam_poses_tum.txt")) return c;
-  }
-  return "";
-}
+std::string findData() { return test::findRealDrive("a2rl"); }
 
 struct Published {
   int control_points;
@@ -37,12 +29,7 @@ constexpr Published kPublished[] = {{10, 2.84, 2.36, 17.61},
                                     {100, 0.39, 0.90, 10.87},
                                     {200, 0.23, 0.41, 7.44}};
 
-DriveInput load(const std::string& dir) {
-  DriveInput in;
-  in.poses = readTumFile(dir + "/slam_poses_tum.txt");
-  in.local_gnss = readLocalGnssFile(dir + "/gnss_local_at_poses.txt");
-  return in;
-}
+DriveInput load(const std::string& dir) { return study::loadRealDrive(dir); }
 
 /// The file gives no std-devs (0): the fusion estimates them; the GNSS control points take the
 /// publisher's word (RTK, 1 cm). Everything else is the defaults, which estimate the clock
@@ -58,7 +45,9 @@ Params forThisData(bool fusion) {
 /// flexcloud's spread and refinement beat the published figures on every measure.
 TEST(A2rl, BeatsThePublishedMethodAtEveryControlPointCount) {
   const std::string dir = findData();
-  if (dir.empty()) GTEST_SKIP() << "a2rl data not found (set FLEXCLOUD_A2RL_DIR); skipped";
+  if (dir.empty())
+    GTEST_SKIP() << "a2rl data not found (../shared/data/a2rl beside the repository, or set "
+                    "FLEXCLOUD_DATA_DIR); skipped";
   const DriveInput in = load(dir);
   ASSERT_EQ(in.poses.size(), 2386u);
   for (const Published& pub : kPublished) {
@@ -100,7 +89,9 @@ double median(std::vector<double> v) {
 /// resampled at the pose stamps by its publisher), not of fixes measured there.
 TEST(A2rl, TheDisputedGnssStretchIsSmootherThanMeasuredFixes) {
   const std::string dir = findData();
-  if (dir.empty()) GTEST_SKIP() << "a2rl data not found (set FLEXCLOUD_A2RL_DIR); skipped";
+  if (dir.empty())
+    GTEST_SKIP() << "a2rl data not found (../shared/data/a2rl beside the repository, or set "
+                    "FLEXCLOUD_DATA_DIR); skipped";
   const DriveInput in = load(dir);
   std::vector<Eigen::Vector3d> gnss, slam;
   for (const auto& g : in.local_gnss) gnss.push_back(g.position);
@@ -164,7 +155,9 @@ Slope fitSlope(const std::vector<double>& x, const std::vector<double>& y) {
 /// residual. The speed profiles (estimateClockOffset) must agree with it.
 TEST(A2rl, TheSlamStampsLagTheGnssByATenthOfASecond) {
   const std::string dir = findData();
-  if (dir.empty()) GTEST_SKIP() << "a2rl data not found (set FLEXCLOUD_A2RL_DIR); skipped";
+  if (dir.empty())
+    GTEST_SKIP() << "a2rl data not found (../shared/data/a2rl beside the repository, or set "
+                    "FLEXCLOUD_DATA_DIR); skipped";
   const DriveInput in = load(dir);
   const std::vector<GnssPoint>& g = in.local_gnss;
   constexpr int kHalf = 10;
@@ -262,7 +255,9 @@ ErrorStats report(const char* what, const HeldOut& h) {
 /// offset.
 TEST(A2rl, LeaveOutDeviation) {
   const std::string dir = findData();
-  if (dir.empty()) GTEST_SKIP() << "a2rl data not found (set FLEXCLOUD_A2RL_DIR); skipped";
+  if (dir.empty())
+    GTEST_SKIP() << "a2rl data not found (../shared/data/a2rl beside the repository, or set "
+                    "FLEXCLOUD_DATA_DIR); skipped";
   const DriveInput all = load(dir);
   DriveInput in = all;
   in.local_gnss.clear();
