@@ -72,8 +72,13 @@ if [ "${sanitize}" = 1 ]; then
   # ascii and compressed maps, whose readers the unit tests and fuzz_pcd take through ASan, and
   # the real drive's study (A2rl.*: a minute under ASan, the fusion's code the BadInput and
   # SimulatedDrive tests take through it too). The unit and end-to-end binaries run side by side.
+  # The clock and revisit figures (Clock.*, Revisits.*) are accuracy bounds of the suite's
+  # compiler: the sanitizer's compiler rounds differently, and on two drives the run takes
+  # another branch (urban_keyframes_1hz seed 2: clock off by 41 ms instead of 6 ms). The second
+  # real drive (Monza.*) is left to the suite like A2rl.*.
   SANITIZE_FILTER="-Targets/Accuracy.*:AccuracyMore.*:SimulatedDrive.*OfTheTruth:A2rl.*"
   SANITIZE_FILTER+=":Tools.AsciiMaps*:Tools.CompressedMaps*:Scenarios/SlamFailures.*"
+  SANITIZE_FILTER+=":Clock.*:Revisits.*:Monza.*"
   for t in flexcloud_unit_tests flexcloud_e2e_tests; do
     log "running ${t} under AddressSanitizer and UndefinedBehaviorSanitizer"
     (ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \

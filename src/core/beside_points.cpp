@@ -24,11 +24,11 @@ class PositionGrid {
   /// Whether a position lies within `radius` of p.
   bool anyWithin(const Eigen::Vector3d& p, double radius) const {
     const int reach = static_cast<int>(std::ceil(radius / cell_));
-    const Eigen::Vector3i c = cellOf(p, cell_);
+    const Cell c = cellOf(p, cell_);
     for (int dx = -reach; dx <= reach; ++dx) {
       for (int dy = -reach; dy <= reach; ++dy) {
         for (int dz = -reach; dz <= reach; ++dz) {
-          const auto it = cells_.find(c + Eigen::Vector3i(dx, dy, dz));
+          const auto it = cells_.find(c + Cell(dx, dy, dz));
           if (it == cells_.end()) continue;
           for (const auto& q : it->second) {
             if ((q - p).norm() < radius) return true;

@@ -20,11 +20,11 @@ std::set<std::pair<std::size_t, std::size_t>> nearPairs(const std::vector<Eigen:
   CellMap<std::vector<std::size_t>> cells;
   for (std::size_t i = 0; i < where.size(); ++i) cells[cellOf(where[i], kRadius)].push_back(i);
   for (std::size_t i = 0; i < where.size(); ++i) {
-    const Eigen::Vector3i key = cellOf(where[i], kRadius);
+    const Cell key = cellOf(where[i], kRadius);
     for (int dx = -1; dx <= 1; ++dx) {
       for (int dy = -1; dy <= 1; ++dy) {
         for (int dz = -1; dz <= 1; ++dz) {
-          const auto it = cells.find(key + Eigen::Vector3i(dx, dy, dz));
+          const auto it = cells.find(key + Cell(dx, dy, dz));
           if (it == cells.end()) continue;
           for (std::size_t j : it->second) {
             if (j > i && (where[j] - where[i]).norm() <= kRadius &&

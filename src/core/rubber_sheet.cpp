@@ -38,12 +38,12 @@ std::vector<std::size_t> mergeNearDuplicates(const std::vector<Eigen::Vector3d>&
   std::vector<std::size_t> kept;
   kept.reserve(pts.size());
   for (std::size_t i = 0; i < pts.size(); ++i) {
-    const Eigen::Vector3i key = cellOf(pts[i], kMergeDistance);
+    const Cell key = cellOf(pts[i], kMergeDistance);
     bool duplicate = false;
     for (int dx = -1; dx <= 1 && !duplicate; ++dx) {
       for (int dy = -1; dy <= 1 && !duplicate; ++dy) {
         for (int dz = -1; dz <= 1 && !duplicate; ++dz) {
-          const auto it = buckets.find(key + Eigen::Vector3i(dx, dy, dz));
+          const auto it = buckets.find(key + Cell(dx, dy, dz));
           if (it == buckets.end()) continue;
           for (std::size_t j : it->second) {
             if ((pts[j] - pts[i]).norm() < kMergeDistance) duplicate = true;

@@ -184,5 +184,19 @@ TEST(RubberSheet, NearDuplicatesAreMergedAndCounted) {
   EXPECT_LT((rs.transform(s.src[5]) - s.dst[5]).norm(), 1e-9);
 }
 
+/// The same near duplicate with the sheet in UTM-size coordinates, where millimetre cells pass
+/// the range of a 32-bit integer (an undefined conversion before).
+TEST(RubberSheet, NearDuplicatesAreMergedAtUtmSizeCoordinates) {
+  Sheet s = makeSheet(50, 13);
+  const Eigen::Vector3d utm(350000.0, 4000000.0, 50.0);
+  for (auto& p : s.src) p += utm;
+  for (auto& p : s.dst) p += utm;
+  s.src.push_back(s.src[5] + Eigen::Vector3d(0.0002, 0.0, 0.0));
+  s.dst.push_back(s.dst[5] + Eigen::Vector3d(1.0, 0.0, 0.0));
+  const RubberSheet rs(s.src, s.dst, identityAffine());
+  EXPECT_EQ(rs.merged(), 1u);
+  EXPECT_LT((rs.transform(s.src[5]) - s.dst[5]).norm(), 1e-6);
+}
+
 }  // namespace
 }  // namespace flexcloud
