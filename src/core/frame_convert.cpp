@@ -1,6 +1,9 @@
 #include "flexcloud/frame_convert.h"
 
 #include <Eigen/LU>
+#include <algorithm>
+#include <cstdio>
+#include <limits>
 #include <sstream>
 
 namespace flexcloud {
@@ -48,6 +51,20 @@ bool invertAt(const RubberSheet& sheet, const Affine34& a, const Eigen::Vector3d
 
 Eigen::Vector3d mapToEnu(const GeoreferenceResult& r, const Eigen::Vector3d& map) {
   return sheetOf(r).transform(map);
+}
+
+std::string coverageNote(const GeoreferenceResult& r, const Eigen::Vector3d& map) {
+  bool outside = false;
+  const Eigen::Vector3d enu = sheetOf(r).transformReference(map, &outside);
+  if (!outside) return "";
+  double nearest = std::numeric_limits<double>::infinity();
+  for (const auto& p : r.rubbersheet) nearest = std::min(nearest, (p.position - enu).norm());
+  char buf[160];
+  std::snprintf(buf, sizeof(buf),
+                "the point lies beyond the rubber sheet, %.1f km from the drive: it got the "
+                "rigid transform only, without drift correction",
+                nearest / 1000.0);
+  return buf;
 }
 
 Pose mapPoseToEnu(const GeoreferenceResult& r, const Pose& map) {

@@ -23,9 +23,11 @@ Eigen::Vector3d finitePoint(const geometry_msgs::Point& p, const std::string& wh
 
 ToLL::Response toLL(const NodeResult& r, const ToLL::Request& req) {
   const Eigen::Vector3d p = finitePoint(req.map_point, "map_point");
-  const Eigen::Vector3d enu = isMapFrame(r, req.frame) ? mapToEnu(r.result, p) : p;
+  const bool in_map = isMapFrame(r, req.frame);
+  const Eigen::Vector3d enu = in_map ? mapToEnu(r.result, p) : p;
   const Datum g = enuToGeodetic(r.result, enu);
   ToLL::Response res;
+  if (in_map) res.message = coverageNote(r.result, p);
   res.ll_point.latitude = g.lat;
   res.ll_point.longitude = g.lon;
   res.ll_point.altitude = g.alt;

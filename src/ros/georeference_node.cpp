@@ -1,7 +1,9 @@
 #include "flexcloud/ros/georeference_node.h"
 
 #include <pcl_conversions/pcl_conversions.h>
+#include <ros/master.h>
 
+#include <cstdio>
 #include <filesystem>
 
 #include "flexcloud/io/pcd_io.h"
@@ -29,6 +31,10 @@ GeoreferenceNode::GeoreferenceNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   service_nh_.setCallbackQueue(&service_queue_);
   try {
     params_ = loadNodeParams(pnh);
+    for (const auto& name : unknownNodeParams(pnh)) {
+      ROS_WARN("%s: parameter '%s' is not one of flexcloud's and is ignored (misspelled?)",
+               name_.c_str(), (name_ + "/" + name).c_str());
+    }
   } catch (const Error& e) {
     startup_error_ = std::string("not started: ") + e.what();
     ROS_FATAL("%s: %s", name_.c_str(), startup_error_.c_str());
@@ -39,21 +45,27 @@ GeoreferenceNode::GeoreferenceNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   service_spinner_->start();
 }
 
+NodeParams GeoreferenceNode::params() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return params_;
+}
+
 void GeoreferenceNode::start() {
-  collector_.setLimit(static_cast<std::size_t>(params_.max_messages));
+  const NodeParams p = params_;  // no other thread runs yet
+  collector_.setLimit(static_cast<std::size_t>(p.max_messages));
   publisher_ = std::make_unique<ResultPublisher>(pnh_);
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_, nh_);
   publisher_->report(toResultMsg(nullptr, true, "no result yet"));
   reconfigure_ =
       std::make_unique<dynamic_reconfigure::Server<GeoreferenceConfig>>(config_mutex_, pnh_);
-  pushConfig(params_);
+  pushConfig(p);
   reconfigure_->setCallback(
       [this](GeoreferenceConfig& c, uint32_t level) { onReconfigure(c, level); });
-  subscribe();
+  subscribe(p);
   worker_ = std::thread([this] { workerLoop(); });
   ROS_INFO("%s: ready (%s input, %d control points, std-dev threshold %.3f m)", name_.c_str(),
-           params_.bag.empty() ? "live" : ("bag " + params_.bag).c_str(),
-           params_.core.control_points, params_.core.stddev_threshold);
+           p.bag.empty() ? "live" : ("bag " + p.bag).c_str(), p.core.control_points,
+           p.core.stddev_threshold);
 }
 
 GeoreferenceNode::~GeoreferenceNode() {
@@ -138,9 +150,9 @@ void GeoreferenceNode::advertiseFrameServices() {
       }));
 }
 
-void GeoreferenceNode::subscribe() {
-  const int q = params_.queue_size;
-  if (!params_.bag.empty()) {
+void GeoreferenceNode::subscribe(const NodeParams& p) {
+  const int q = p.queue_size;
+  if (!p.bag.empty()) {
     startBagRead();
   } else {
     using namespace sensor_msgs;
@@ -148,12 +160,12 @@ void GeoreferenceNode::subscribe() {
         "fix", q,
         boost::function<void(const NavSatFixConstPtr&)>(
             [this](const NavSatFixConstPtr& m) { collector_.handleFix(*m); })));
-    if (params_.odom_type == "odometry") {
+    if (p.odom_type == "odometry") {
       subscribers_.push_back(nh_.subscribe<nav_msgs::Odometry>(
           "odom", q,
           boost::function<void(const nav_msgs::OdometryConstPtr&)>(
               [this](const nav_msgs::OdometryConstPtr& m) { collector_.handleOdometry(*m); })));
-    } else if (params_.odom_type == "pose") {
+    } else if (p.odom_type == "pose") {
       subscribers_.push_back(nh_.subscribe<geometry_msgs::PoseStamped>(
           "odom", q,
           boost::function<void(const geometry_msgs::PoseStampedConstPtr&)>(
@@ -165,7 +177,7 @@ void GeoreferenceNode::subscribe() {
               [this](const nav_msgs::PathConstPtr& m) { collector_.handlePath(*m); })));
     }
   }
-  if (params_.map_file.empty()) {
+  if (p.map_file.empty()) {
     subscribers_.push_back(nh_.subscribe("map", 1, &GeoreferenceNode::onMap, this));
   }
 }
@@ -192,26 +204,27 @@ void GeoreferenceNode::readBag() {
   topics.fix = nh_.resolveName("fix");
   topics.odom = nh_.resolveName("odom");
   topics.fall_back_by_type = true;
+  const std::string bag = params().bag;
   std::string error;
   try {
-    const BagSummary s =
-        flexcloud::readBag(params_.bag, topics, collector_, nullptr, [this](double) {
-          std::lock_guard<std::mutex> lock(mutex_);
-          if (bag_stop_) throw BagStopped{};
-        });
+    const BagSummary s = flexcloud::readBag(bag, topics, collector_, nullptr, [this](double) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (bag_stop_) throw BagStopped{};
+    });
     ROS_INFO("%s: read %zu fixes on %s and %zu poses on %s from %s", name_.c_str(), s.fixes,
-             s.fix_topic.c_str(), s.poses, s.odom_topic.c_str(), params_.bag.c_str());
+             s.fix_topic.c_str(), s.poses, s.odom_topic.c_str(), bag.c_str());
   } catch (const BagStopped&) {
     return;
   } catch (const Error& e) {
     error = e.what();
     ROS_ERROR("%s: %s", name_.c_str(), error.c_str());
+    publisher_->report(failed(error));
   }
   std::lock_guard<std::mutex> lock(mutex_);
   bag_done_ = true;
   bag_error_ = error;
   if (error.empty() && params_.georeference_on_bag_end && !busy_ && !service_job_) {
-    service_job_ = Job{params_, nullptr};
+    service_job_ = Job{params_, nullptr, {}};
     wake_.notify_all();
   }
 }
@@ -252,15 +265,17 @@ bool GeoreferenceNode::waitForJob(Job& job) {
     job = std::move(*service_job_);
     service_job_.reset();
   } else {
-    job = Job{params_, nullptr};  // the latest setting wins
+    job = Job{params_, nullptr, {}};  // the latest setting wins
   }
+  job.notes.insert(job.notes.end(), pending_notes_.begin(), pending_notes_.end());
+  pending_notes_.clear();
   recompute_pending_ = false;
   busy_ = true;
   return true;
 }
 
 void GeoreferenceNode::workerLoop() {
-  if (!params_.map_file.empty()) readMapFile(params_.map_file, nullptr);
+  if (const std::string file = params().map_file; !file.empty()) readMapFile(file, nullptr);
   Job job;
   while (waitForJob(job)) {
     std::uint64_t generation;
@@ -273,7 +288,7 @@ void GeoreferenceNode::workerLoop() {
     std::shared_ptr<const NodeResult> result;
     std::string error;
     try {
-      result = run(job.params, *cancel);
+      result = run(job, *cancel);
     } catch (const std::exception& e) {
       error = e.what();
     }
@@ -321,34 +336,64 @@ flexcloud::Result GeoreferenceNode::finish(std::shared_ptr<const NodeResult> res
   return msg;
 }
 
-void GeoreferenceNode::leverArmFromTf(NodeParams& params) const {
-  if (!params.lever_arm_from_tf) return;
+std::string GeoreferenceNode::leverArmFromTf(NodeParams& params) const {
+  if (!params.lever_arm_from_tf) return "parameters (lever_arm_from_tf is false)";
   const std::string body = params.body_frame.empty() ? collector_.bodyFrame() : params.body_frame;
   const std::string antenna = collector_.fixFrame();
-  if (body.empty() || antenna.empty() || body == antenna) return;
+  if (body.empty() || antenna.empty()) {
+    return "parameters (the " + std::string(body.empty() ? "body" : "fixes'") +
+           " frame id is empty, so TF cannot be asked)";
+  }
+  if (body == antenna) return "parameters (the fixes are in the body frame " + body + ")";
   try {
     const auto t = tf_buffer_.lookupTransform(body, antenna, ros::Time(0));
     params.core.lever_arm_x = t.transform.translation.x;
     params.core.lever_arm_y = t.transform.translation.y;
     params.core.lever_arm_z = t.transform.translation.z;
-  } catch (const tf2::TransformException&) {
-    // No transform between them: the lever arm parameters apply.
+    return "tf " + body + " -> " + antenna;
+  } catch (const tf2::TransformException& e) {
+    char arm[96];
+    std::snprintf(arm, sizeof(arm), "(%.3f, %.3f, %.3f) m", params.core.lever_arm_x,
+                  params.core.lever_arm_y, params.core.lever_arm_z);
+    const std::string why = "no TF from " + body + " to " + antenna + " (" + e.what() + ")";
+    ROS_WARN("%s: %s: the lever_arm parameters apply, %s", name_.c_str(), why.c_str(), arm);
+    return "parameters " + std::string(arm) + ": " + why;
   }
 }
 
-std::shared_ptr<const NodeResult> GeoreferenceNode::run(NodeParams params,
-                                                        const CancelToken& cancel) {
-  leverArmFromTf(params);
+std::string GeoreferenceNode::nothingReceived(const std::string& what, const std::string& topic,
+                                              const std::string& type) const {
+  std::string message = "no " + what + " received yet on " + topic;
+  ros::master::V_TopicInfo topics;
+  if (!ros::master::getTopics(topics)) return message;
+  std::string found;
+  for (const auto& t : topics) {
+    const bool own = t.name.rfind(name_ + "/", 0) == 0;  // e.g. ~origin, a NavSatFix too
+    if (t.datatype == type && t.name != topic && !own) {
+      found += (found.empty() ? "" : ", ") + t.name;
+    }
+  }
+  message += found.empty() ? " (no " + type + " topic is published now)"
+                           : " (" + type + " is published on " + found + ": remap to it)";
+  return message;
+}
+
+std::shared_ptr<const NodeResult> GeoreferenceNode::run(const Job& job, const CancelToken& cancel) {
+  NodeParams params = job.params;
   const auto t0 = std::chrono::steady_clock::now();
   auto s = std::make_shared<NodeResult>();
+  s->lever_arm_source = leverArmFromTf(params);
   const DriveInput input = collector_.snapshot();
-  const std::string source = params.bag.empty() ? "" : params.bag;
   if (input.fixes.empty()) {
-    throw Error("no GNSS fix received yet on " +
-                (source.empty() ? nh_.resolveName("fix") : source));
+    if (!params.bag.empty()) throw Error("no GNSS fix read from " + params.bag);
+    throw Error(nothingReceived("GNSS fix", nh_.resolveName("fix"), "sensor_msgs/NavSatFix"));
   }
   if (input.poses.empty()) {
-    throw Error("no pose received yet on " + (source.empty() ? nh_.resolveName("odom") : source));
+    if (!params.bag.empty()) throw Error("no pose read from " + params.bag);
+    const std::string type = params.odom_type == "odometry" ? "nav_msgs/Odometry"
+                             : params.odom_type == "pose"   ? "geometry_msgs/PoseStamped"
+                                                            : "nav_msgs/Path";
+    throw Error(nothingReceived("pose", nh_.resolveName("odom"), type));
   }
   s->result = flexcloud::georeference(input, params.core, cancel);
   cancel.check("georeferencing");
@@ -358,7 +403,10 @@ std::shared_ptr<const NodeResult> GeoreferenceNode::run(NodeParams params,
                   : !collector_.mapFrame().empty() ? collector_.mapFrame()
                                                    : std::string("map");
   s->map = warpMap(params, s->result, cancel, s->map_info);
-  s->warnings = resultWarnings(s->result, params.core, s->map ? &s->map_info.warp : nullptr);
+  s->warnings = job.notes;
+  for (auto& w : resultWarnings(s->result, params.core, s->map ? &s->map_info.warp : nullptr)) {
+    s->warnings.push_back(std::move(w));
+  }
   s->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return s;
 }
@@ -411,7 +459,10 @@ flexcloud::Georeference::Response GeoreferenceNode::georeference(int control_poi
       return refused("a georeferencing run is going; call again when it has finished");
     }
     if (!bag_done_) return refused("still reading the bag " + params_.bag + "; call again soon");
-    if (!bag_error_.empty()) return refused(bag_error_);
+    if (!bag_error_.empty()) {
+      publisher_->report(failed(bag_error_));
+      return refused(bag_error_);
+    }
     params = params_;
     const auto override_with = [&](const char* name, double value) {
       if (value == 0.0) return std::string();  // 0 keeps the node's value
@@ -423,7 +474,7 @@ flexcloud::Georeference::Response GeoreferenceNode::georeference(int control_poi
                             override_with("stddev_threshold", stddev_threshold);
     if (!bad.empty()) return refused("request refused: " + bad);
     params_ = params;
-    service_job_ = Job{params, reply};
+    service_job_ = Job{params, reply, {}};
   }
   wake_.notify_all();
   pushConfig(params);
@@ -491,11 +542,11 @@ std_srvs::Trigger::Response GeoreferenceNode::reset() {
   collector_.clear();
   publisher_->withdraw(frames);
   publisher_->report(toResultMsg(nullptr, true, "reset: no result"));
-  if (!params_.bag.empty()) startBagRead();
+  const std::string bag = params().bag;
+  if (!bag.empty()) startBagRead();
   res.success = true;
-  res.message = params_.bag.empty()
-                    ? "cleared every fix, pose and the result"
-                    : "cleared every fix, pose and the result; reading " + params_.bag + " again";
+  res.message = bag.empty() ? "cleared every fix, pose and the result"
+                            : "cleared every fix, pose and the result; reading " + bag + " again";
   ROS_INFO("%s: %s", name_.c_str(), res.message.c_str());
   return res;
 }
@@ -506,14 +557,23 @@ flexcloud::LoadMap::Response GeoreferenceNode::loadMap(const std::string& file) 
     res.message = startup_error_;
     return res;
   }
-  const std::string path = file.empty() ? params_.map_file : file;
+  const std::string path = file.empty() ? params().map_file : file;
   if (path.empty()) {
     res.message = "no file given and no ~map_file set";
     return res;
   }
   res.message = readMapFile(path, &res.points);
   res.success = res.message.empty();
-  if (res.success) res.message = "loaded " + std::to_string(res.points) + " points from " + path;
+  if (!res.success) return res;
+  bool published = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    published = result_ != nullptr;
+  }
+  res.message =
+      "loaded " + std::to_string(res.points) + " points from " + path +
+      (published ? "; call ~georeference to warp it (the published map is the earlier one)"
+                 : "; call ~georeference to warp it");
   return res;
 }
 
@@ -543,6 +603,10 @@ void GeoreferenceNode::onReconfigure(GeoreferenceConfig& c, uint32_t /*level*/) 
     return;
   }
   const bool changed = !nodeParamTable().same(p, params_);
+  for (auto& note : clampNotes(params_, p)) {
+    ROS_WARN("%s: %s", name_.c_str(), note.c_str());
+    pending_notes_.push_back(std::move(note));
+  }
   params_ = p;
   if (changed && result_) {
     recompute_pending_ = true;
@@ -551,6 +615,23 @@ void GeoreferenceNode::onReconfigure(GeoreferenceConfig& c, uint32_t /*level*/) 
                         std::chrono::duration<double>(params_.recompute_delay));
     wake_.notify_all();
   }
+}
+
+std::vector<std::string> GeoreferenceNode::clampNotes(const NodeParams& before,
+                                                      const NodeParams& after) const {
+  std::vector<std::string> notes;
+  for (const auto& row : nodeParamTable().rows()) {
+    const ParamSpec& spec = row.spec;
+    if (!spec.live || (spec.type != ParamType::kReal && spec.type != ParamType::kInt)) continue;
+    const double now = row.get(after).number;
+    if (now == row.get(before).number || (now != spec.min && now != spec.max)) continue;
+    notes.push_back(spec.name + " is " + formatValue(spec, row.get(after)) + ", the " +
+                    (now == spec.min ? "least" : "largest") +
+                    " it can be: dynamic_reconfigure sets a value beyond [" +
+                    formatValue(spec, ParamValue{spec.min, "", {}}) + ", " +
+                    formatValue(spec, ParamValue{spec.max, "", {}}) + "] to that bound");
+  }
+  return notes;
 }
 
 }  // namespace flexcloud

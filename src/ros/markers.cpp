@@ -73,7 +73,7 @@ visualization_msgs::MarkerArray controlPoints(const GeoreferenceResult& r, const
     text.text = buf;
     a.markers.push_back(text);
   }
-  a.markers.push_back(spheres);
+  if (!spheres.points.empty()) a.markers.push_back(spheres);
   return a;
 }
 
@@ -88,7 +88,8 @@ visualization_msgs::MarkerArray rejectedFixes(const GeoreferenceResult& r, const
   for (const auto& o : r.fusion->fixes) {
     if (o.verdict == FixVerdict::kOutlier) spheres.points.push_back(point(o.position));
   }
-  a.markers.push_back(spheres);
+  // rviz shows an empty SPHERE_LIST as an error: no fix rejected, no marker.
+  if (!spheres.points.empty()) a.markers.push_back(spheres);
   // What the fusion estimated, beside the start of the drive.
   const auto& f = *r.fusion;
   Marker text = base(frame, stamp, "fusion", 0, Marker::TEXT_VIEW_FACING);

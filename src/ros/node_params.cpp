@@ -2,6 +2,7 @@
 
 #include <dynamic_reconfigure/config_tools.h>
 
+#include <algorithm>
 #include <cstdio>
 
 namespace flexcloud {
@@ -119,6 +120,22 @@ NodeParams loadNodeParams(const ros::NodeHandle& pnh) {
   problems = join(problems, p.validate());
   if (!problems.empty()) throw Error("parameters of " + pnh.getNamespace() + ": " + problems);
   return p;
+}
+
+std::vector<std::string> unknownNodeParams(const ros::NodeHandle& pnh) {
+  std::vector<std::string> names;
+  if (!pnh.getParamNames(names)) return {};
+  const std::string prefix = pnh.getNamespace() + "/";
+  std::vector<std::string> unknown;
+  for (const auto& full : names) {
+    if (full.compare(0, prefix.size(), prefix) != 0) continue;
+    const std::string name =
+        full.substr(prefix.size(), full.find('/', prefix.size()) - prefix.size());
+    if (nodeParamTable().find(name) == nullptr) unknown.push_back(name);
+  }
+  std::sort(unknown.begin(), unknown.end());
+  unknown.erase(std::unique(unknown.begin(), unknown.end()), unknown.end());
+  return unknown;
 }
 
 // dynamic_reconfigure keeps a config as a message of named ints, doubles, strs and bools; the

@@ -20,6 +20,7 @@ flexcloud::Result toResultMsg(const NodeResult* r, bool success, const std::stri
   const GeoreferenceResult& g = r->result;
   m.header.frame_id = r->frames.enu;
   m.warnings = r->warnings;
+  m.lever_arm_source = r->lever_arm_source;
   m.fixes_used = static_cast<std::uint32_t>(g.gnss.points.size());
   m.fixes_dropped = static_cast<std::uint32_t>(g.gnss.dropped.total());
   if (g.fusion) {
@@ -70,6 +71,7 @@ flexcloud::Georeference::Response toResponse(const flexcloud::Result& msg) {
   res.fixes_rejected = msg.fixes_rejected;
   res.time_offset = msg.time_offset;
   res.lever_arm = msg.lever_arm;
+  res.lever_arm_source = msg.lever_arm_source;
   res.estimated_std_h = msg.estimated_std_h;
   res.estimated_std_v = msg.estimated_std_v;
   res.slam_noise_scale = msg.slam_noise_scale;

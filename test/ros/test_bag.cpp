@@ -112,6 +112,7 @@ TEST(Bag, LatLonServicesRoundTripThroughTheSheet) {
     to_ll.request.map_point = to_enu.request.poses[k].position;
     to_ll = callService("/flexcloud/to_ll", to_ll);
     ASSERT_TRUE(to_ll.response.success) << to_ll.response.message;
+    EXPECT_EQ(to_ll.response.message, "") << "a pose of the drive is inside the sheet";
     flexcloud::FromLL from_ll;
     from_ll.request.ll_point = to_ll.response.ll_point;
     from_ll = callService("/flexcloud/from_ll", from_ll);
@@ -147,6 +148,18 @@ TEST(Bag, LatLonServicesRoundTripThroughTheSheet) {
   bad = callService("/flexcloud/to_ll", bad);
   EXPECT_FALSE(bad.response.success);
   EXPECT_NE(bad.response.message.find("base_link"), std::string::npos) << bad.response.message;
+  // A point 100 km from the drive is answered, with a note that it got the rigid part only.
+  flexcloud::ToLL outside;
+  outside.request.map_point.x = slam.front().position.x() + 100000.0;
+  outside.request.map_point.y = slam.front().position.y();
+  outside = callService("/flexcloud/to_ll", outside);
+  EXPECT_TRUE(outside.response.success);
+  const std::string note = "beyond the rubber sheet, ";
+  const std::size_t at = outside.response.message.find(note);
+  ASSERT_NE(at, std::string::npos) << outside.response.message;
+  const double km = std::stod(outside.response.message.substr(at + note.size()));
+  EXPECT_GT(km, 95.0) << outside.response.message;  // the drive is a few km long
+  EXPECT_LT(km, 100.5) << outside.response.message;
   flexcloud::FromLL far;
   far.request.ll_point.latitude = 91.0;
   far = callService("/flexcloud/from_ll", far);

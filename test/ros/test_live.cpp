@@ -105,9 +105,21 @@ TEST_F(Live, NoDataIsRefusedWithAMessage) {
   std_srvs::Trigger reset;
   ASSERT_TRUE(ros::service::waitForService("/flexcloud/reset", ros::Duration(20.0)));
   ASSERT_TRUE(ros::service::call("/flexcloud/reset", reset));
-  const auto r = call();
-  EXPECT_FALSE(r.success);
-  EXPECT_NE(r.message.find("no GNSS fix received yet on /fix"), std::string::npos) << r.message;
+  // A NavSatFix topic under another name is named as the one to remap to.
+  ros::NodeHandle nh;
+  const ros::Publisher other = nh.advertise<sensor_msgs::NavSatFix>("/gnss/navsat", 1);
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(10.0);
+  std::string message;
+  while (message.find("/gnss/navsat") == std::string::npos && ros::WallTime::now() < end) {
+    const auto r = call();
+    EXPECT_FALSE(r.success);
+    message = r.message;
+    ros::WallDuration(0.1).sleep();
+  }
+  EXPECT_NE(message.find("no GNSS fix received yet on /fix"), std::string::npos) << message;
+  EXPECT_NE(message.find("sensor_msgs/NavSatFix is published on /gnss/navsat: remap to it"),
+            std::string::npos)
+      << message;
 }
 
 TEST_F(Live, TopicsInAccurateMapOutTfAndMarkersToo) {
@@ -125,6 +137,7 @@ TEST_F(Live, TopicsInAccurateMapOutTfAndMarkersToo) {
   EXPECT_NEAR(r.datum_lat, 48.262, 1e-9);           // the datum given in live.test
   EXPECT_NEAR(r.lever_arm.x, kLeverArm.x(), 1e-9);  // from TF
   EXPECT_NEAR(r.lever_arm.z, kLeverArm.z(), 1e-9);
+  EXPECT_EQ(r.lever_arm_source, "tf base_link -> gnss");
 
   const auto map = mapAfter(before, 20.0);
   ASSERT_TRUE(map);
@@ -196,6 +209,20 @@ TEST_F(Live, ReconfigureRecomputesAndRepublishes) {
     if (cps) spheres = sphereCount(*cps);
   }
   EXPECT_EQ(spheres, 40u);
+  // A value beyond the range is clamped by dynamic_reconfigure: the node says so in the log and
+  // in the next result's warnings.
+  const ros::Time clamped_at = ros::Time::now();
+  config.control_points = -3;
+  ASSERT_TRUE(client.setConfiguration(config));
+  const auto clamped = resultWhere(
+      clamped_at, [](const Result& m) { return m.success; }, 30.0);
+  ASSERT_TRUE(clamped);
+  EXPECT_EQ(parameterOf(*clamped, "control_points"), "4");
+  bool said = false;
+  for (const auto& w : clamped->warnings) {
+    said = said || w.find("control_points is 4, the least it can be") != std::string::npos;
+  }
+  EXPECT_TRUE(said) << "no warning of the clamped control_points";
   // An invalid change is refused and the values in use stay.
   config.interpolation = "cubic";
   client.setConfiguration(config);
@@ -241,6 +268,9 @@ TEST_F(Live, ResultTopicDescribesThePublishedResult) {
       "/flexcloud/rejected_fixes", nh, ros::Duration(10.0));
   ASSERT_TRUE(rejected);
   EXPECT_EQ(sphereCount(*rejected), r.fixes_rejected);
+  for (const auto& m : rejected->markers) {  // rviz shows an empty list as an error
+    EXPECT_FALSE(m.type == visualization_msgs::Marker::SPHERE_LIST && m.points.empty());
+  }
   EXPECT_EQ(msg->control_points, r.control_points);
   EXPECT_EQ(msg->map_points, r.map_points);
   EXPECT_DOUBLE_EQ(msg->rubbersheet.mae, r.rubbersheet.mae);
@@ -360,6 +390,10 @@ TEST_F(Live, LoadMapReplacesTheMapToWarp) {
   load = callService("/flexcloud/load_map", load);
   ASSERT_TRUE(load.response.success) << load.response.message;
   EXPECT_EQ(load.response.points, half.width);
+  EXPECT_NE(load.response.message.find("call ~georeference to warp it (the published map is the "
+                                       "earlier one)"),
+            std::string::npos)
+      << load.response.message;
   const auto r = call();
   ASSERT_TRUE(r.success) << r.message;
   EXPECT_EQ(r.map_points, half.width);

@@ -37,6 +37,18 @@ TEST(Params, WrongValuesAreNamedAndTheNodeDoesNotStart) {
   const NodeParams p = loadNodeParams(good);
   EXPECT_EQ(p.core.control_points, 50);
   EXPECT_DOUBLE_EQ(p.core.margin_z, 3.0);
+  EXPECT_TRUE(unknownNodeParams(good).empty());
+}
+
+/// A misspelled parameter is named (the node warns about it) rather than silently ignored.
+TEST(Params, MisspelledParametersAreNamed) {
+  ros::NodeHandle nh("/misspelled_params");
+  nh.setParam("control_points", 50);
+  nh.setParam("contol_points", 80);
+  nh.setParam("enu_frame", std::string("world"));
+  nh.setParam("extra/nested", 1);
+  EXPECT_EQ(unknownNodeParams(nh), (std::vector<std::string>{"contol_points", "extra"}));
+  EXPECT_EQ(loadNodeParams(nh).core.control_points, 50);
 }
 
 /// A nodelet cannot leave its manager (14): with a bad parameter it answers every service with
@@ -57,6 +69,24 @@ TEST(Params, ABadNodeletAnswersEveryServiceWithTheReason) {
   const auto load = callService<flexcloud::LoadMap>("/bad_nodelet/load_map");
   EXPECT_FALSE(load.response.success);
   EXPECT_NE(load.response.message.find(reason), std::string::npos);
+}
+
+/// A bag that cannot be read reaches ~result (success false, naming the bag), and so does a
+/// ~georeference call refused because of it.
+TEST(Params, ABagThatCannotBeReadReachesTheResultTopic) {
+  const auto read = messageWhere<Result>(
+      "/bagless/result", [](const Result& m) { return !m.success; }, 30.0);
+  ASSERT_TRUE(read) << "~result never reported the bag";
+  EXPECT_NE(read->message.find("/nonexistent/drive.bag"), std::string::npos) << read->message;
+  const ros::Time before = ros::Time::now();
+  const auto g = call(0, 0.0, "/bagless");
+  EXPECT_FALSE(g.success);
+  EXPECT_NE(g.message.find("/nonexistent/drive.bag"), std::string::npos) << g.message;
+  const auto after = messageWhere<Result>(
+      "/bagless/result", [&](const Result& m) { return m.header.stamp >= before; }, 10.0);
+  ASSERT_TRUE(after);
+  EXPECT_FALSE(after->success);
+  EXPECT_EQ(after->message, g.message);
 }
 
 /// The standalone node ends with exit 1 on a bad parameter (14), naming it.

@@ -59,14 +59,18 @@ class GeoreferenceNode {
   struct Job {
     NodeParams params;
     std::shared_ptr<std::promise<flexcloud::Result>> reply;  // null: recompute or bag end
+    std::vector<std::string> notes;  // for the result's warnings (values clamped on the way)
   };
 
   void start();
+  /// A copy of the node's parameters, taken under the lock (dynamic_reconfigure and
+  /// ~georeference assign them from other threads).
+  NodeParams params() const;
   void advertiseServices();
   void advertiseFrameServices();
   /// The published result; throws Error when there is none (or the node did not start).
   std::shared_ptr<const NodeResult> latestResult();
-  void subscribe();
+  void subscribe(const NodeParams& p);
   void startBagRead();
   void onMap(const sensor_msgs::PointCloud2ConstPtr& msg);
   void onReconfigure(GeoreferenceConfig& config, uint32_t level);
@@ -77,9 +81,16 @@ class GeoreferenceNode {
   void readBag();
   /// Loads `file` into map_; returns the error ("" on success) and the point count.
   std::string readMapFile(const std::string& file, std::uint64_t* points);
-  std::shared_ptr<const NodeResult> run(NodeParams params, const CancelToken& cancel);
-  /// The lever arm from TF (body frame -> the fixes' frame) into `params`, when asked and there.
-  void leverArmFromTf(NodeParams& params) const;
+  std::shared_ptr<const NodeResult> run(const Job& job, const CancelToken& cancel);
+  /// The lever arm from TF (body frame -> the fixes' frame) into `params`, when asked and there;
+  /// returns where the lever arm came from (logged when TF was asked for and not found).
+  std::string leverArmFromTf(NodeParams& params) const;
+  /// "no GNSS fix received yet on TOPIC", with the topics of that type that exist now.
+  std::string nothingReceived(const std::string& what, const std::string& topic,
+                              const std::string& type) const;
+  /// Lines on live values that landed on their range's bound (dynamic_reconfigure clamps
+  /// values beyond it without a word).
+  std::vector<std::string> clampNotes(const NodeParams& before, const NodeParams& after) const;
   sensor_msgs::PointCloud2ConstPtr warpMap(const NodeParams& params, const GeoreferenceResult& r,
                                            const CancelToken& cancel, MapInfo& info);
   /// Shows a finished run (or its failure) unless a reset came in between.
@@ -96,7 +107,7 @@ class GeoreferenceNode {
   std::unique_ptr<ros::AsyncSpinner> service_spinner_;
   std::string name_;
   std::string startup_error_;
-  NodeParams params_;  // guarded by mutex_ once the worker runs
+  NodeParams params_;  // guarded by mutex_: read through params() outside it
   DriveCollector collector_;
   std::vector<ros::Subscriber> subscribers_;
   std::vector<ros::ServiceServer> services_;
@@ -108,12 +119,13 @@ class GeoreferenceNode {
   std::unique_ptr<dynamic_reconfigure::Server<GeoreferenceConfig>> reconfigure_;
 
   // Guarded by mutex_.
-  std::mutex mutex_;
+  mutable std::mutex mutex_;
   std::condition_variable wake_;
   bool busy_ = false;
   bool stop_ = false;
   std::optional<Job> service_job_;
   bool recompute_pending_ = false;
+  std::vector<std::string> pending_notes_;  ///< clamp notes for the next run
   std::chrono::steady_clock::time_point recompute_at_;
   std::shared_ptr<const NodeResult> result_;  ///< the published result; null: none
   std::uint64_t generation_ = 0;              ///< raised by every reset

@@ -6,6 +6,7 @@
 #include <ros/node_handle.h>
 
 #include <string>
+#include <vector>
 
 #include "flexcloud/GeoreferenceConfig.h"
 #include "flexcloud/params.h"
@@ -39,6 +40,10 @@ const ParamTable<NodeParams>& nodeParamTable();
 /// Reads every parameter of the table from the private node handle. Throws Error naming every
 /// wrong value, e.g. a string where a number belongs, instead of falling back to the default.
 NodeParams loadNodeParams(const ros::NodeHandle& pnh);
+
+/// The names under the private node handle that the table does not know (a misspelled
+/// parameter), sorted; the node warns about each, since it would otherwise go unnoticed.
+std::vector<std::string> unknownNodeParams(const ros::NodeHandle& pnh);
 
 /// The live rows of the table into a dynamic_reconfigure config, and back; fromConfig throws
 /// Error for a value that is not one of a parameter's choices.

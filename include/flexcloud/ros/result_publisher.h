@@ -25,6 +25,7 @@ struct NodeResult {
   sensor_msgs::PointCloud2ConstPtr map;  ///< warped, in the ENU frame; null without a map
   MapInfo map_info;
   std::vector<std::string> warnings;
+  std::string lever_arm_source;  ///< "tf BODY -> ANTENNA" or "parameters (why)"
   double seconds = 0.0;
 };
 
