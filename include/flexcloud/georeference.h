@@ -135,6 +135,10 @@ struct GeoreferenceResult {
 GeoreferenceResult georeference(const DriveInput& input, const Params& params,
                                 const CancelToken& cancel = neverCancelled());
 
+/// A line when the control points placed on the trajectory fall short of those asked for by
+/// more than 10 % (the request capped by the poses with usable GNSS); "" otherwise.
+std::string controlPointShortfall(const ControlPointSelection& cp, std::size_t poses);
+
 /// What a user must read beside the result, one line each: a large share of the poses without
 /// GNSS or of the map beyond the GNSS coverage (moved by the rigid transform only; `map` null:
 /// no map), and revisit conflicts.

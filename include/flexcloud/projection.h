@@ -14,9 +14,9 @@ namespace flexcloud {
 
 /// The frame the points of an exported map are given in.
 enum class ProjectorType {
-  kLocalCartesian,     ///< ENU about the datum: flexcloud's own frame, no point moves
-  kLocalCartesianUtm,  ///< UTM (the datum's zone) minus the datum's UTM position; z - datum alt
-  kMgrs,               ///< easting/northing inside the datum's 100 km MGRS square; z = altitude
+  kLocalCartesian,     ///< ENU at the datum's latitude and longitude, z ellipsoidal height
+  kLocalCartesianUtm,  ///< UTM (the datum's zone) minus the datum's UTM position; z = height
+  kMgrs,               ///< easting/northing inside the datum's 100 km MGRS square; z = height
 };
 
 /// The names of the projector choice: local_cartesian, local_cartesian_utm, mgrs.
@@ -45,8 +45,9 @@ class MapProjection {
   MapProjection(const Datum& datum, ProjectorType type);
 
   ProjectorType type() const { return type_; }
-  /// The point in the projector's frame. Throws Error for MGRS when the point lies outside the
-  /// datum's 100 km square (a map must stay in one square).
+  /// The point in the projector's frame, z the ellipsoidal height for every projector (as
+  /// Autoware reads it). Throws Error for MGRS when the point lies outside the datum's 100 km
+  /// square (a map must stay in one square).
   Eigen::Vector3d fromEnu(const Eigen::Vector3d& enu) const;
   /// The point in the datum's UTM zone: easting, northing, ellipsoidal height (m).
   Eigen::Vector3d utmFromEnu(const Eigen::Vector3d& enu) const;

@@ -261,6 +261,15 @@ std::vector<FalseRtk> falseRtkStretches(const FusionResult& f) {
 
 }  // namespace
 
+std::string controlPointShortfall(const ControlPointSelection& cp, std::size_t poses) {
+  const std::size_t placed = cp.points.size() - std::min(cp.added, cp.points.size());
+  if (10 * placed >= 9 * cp.requested) return "";
+  return "control_points " + std::to_string(cp.requested) + " asked for, " +
+         std::to_string(placed) + " placed: " + std::to_string(cp.skipped) +
+         " found no usable GNSS in their stretch and the others fell on poses already taken " +
+         "(at most one per pose; the drive has " + std::to_string(poses) + " poses)";
+}
+
 std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Params& params,
                                         const WarpStats* map) {
   std::vector<std::string> out;
@@ -278,6 +287,9 @@ std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Param
       out.push_back(percent(outside) + " of the map points lie beyond the GNSS coverage: they " +
                     "got the rigid transform only, without drift correction");
     }
+  }
+  if (std::string cap = controlPointShortfall(r.control_points, r.poses.size()); !cap.empty()) {
+    out.push_back(std::move(cap));
   }
   if (r.revisits.conflicting > 0) {
     std::ostringstream s;

@@ -131,8 +131,9 @@ ParamTable<P> makeTable() {
       boolRow<P>("autoware", &P::autoware, false,
                  "Also write the map as Autoware takes it: autoware/ with tiles, their metadata "
                  "and map_projector_info.yaml"),
-      realRow<P>("tile_size", &P::tile_size, 20.0, 0.1, 100000, "m",
-                 "Side of the square Autoware map tiles"),
+      realRow<P>("tile_size", &P::tile_size, 20.0, 1.0, 100000, "m",
+                 "Side of the square Autoware map tiles, whole metres (Autoware reads the "
+                 "tiles' corners as integers)"),
       choiceRow<P>("projector", &P::projector, "local_cartesian", projectorNames(),
                    "Frame of the Autoware tiles: local_cartesian (ENU at the datum, no point "
                    "moves), local_cartesian_utm, mgrs"),
@@ -156,8 +157,14 @@ bool Params::hasDatum() const {
 }
 
 std::string Params::ruleProblems() const {
+  std::string out;
   const bool none = std::isnan(datum_lat) && std::isnan(datum_lon) && std::isnan(datum_alt);
-  return none || hasDatum() ? "" : "datum_lat, datum_lon, datum_alt: give all three or none";
+  if (!none && !hasDatum()) out = "datum_lat, datum_lon, datum_alt: give all three or none";
+  if (std::isfinite(tile_size) && tile_size != std::round(tile_size)) {
+    out += std::string(out.empty() ? "" : "; ") + "tile_size " + std::to_string(tile_size) +
+           " m: Autoware reads the tiles' corners as integers; give whole metres";
+  }
+  return out;
 }
 
 std::string Params::validate() const {

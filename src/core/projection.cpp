@@ -112,10 +112,14 @@ Eigen::Vector3d MapProjection::enuFromUtm(const Eigen::Vector3d& utm) const {
 }
 
 Eigen::Vector3d MapProjection::fromEnu(const Eigen::Vector3d& enu) const {
-  if (type_ == ProjectorType::kLocalCartesian) return enu;
+  // Autoware's map_projection_loader takes the map origin's altitude as 0 for every projector
+  // but MGRS: z is the ellipsoidal height. The ENU frame at the datum and the one at the same
+  // latitude and longitude at height 0 share their axes (both on the datum's normal), so the
+  // local Cartesian frame moves z alone.
+  if (type_ == ProjectorType::kLocalCartesian) return {enu.x(), enu.y(), enu.z() + datum_.alt};
   if (type_ == ProjectorType::kLocalCartesianUtm) {
     const Eigen::Vector3d utm = utmFromEnu(enu);
-    return {utm.x() - origin_x_, utm.y() - origin_y_, utm.z() - datum_.alt};
+    return {utm.x() - origin_x_, utm.y() - origin_y_, utm.z()};
   }
   const Datum g = geodeticOf(enu);
   const Eigen::Vector3d utm = utmOf(g);

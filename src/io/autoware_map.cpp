@@ -267,9 +267,10 @@ std::string projectorInfoYaml(const MapProjection& projection) {
   if (projection.type() == ProjectorType::kMgrs) {
     s << "mgrs_grid: " << projection.mgrsGrid() << "\n";
   }
+  // Autoware reads no origin altitude (it takes 0): the tiles' z is the ellipsoidal height.
   const Datum& d = projection.datum();
   s << "map_origin:\n  latitude: " << d.lat << "\n  longitude: " << d.lon
-    << "\n  altitude: " << d.alt << "\n";
+    << "\n  altitude: 0.0  # the tiles' z is the ellipsoidal height (WGS84)\n";
   return s.str();
 }
 
@@ -277,6 +278,10 @@ AutowareSummary writeAutowareMap(const std::string& map_pcd, const std::string& 
                                  const Datum& datum, const AutowareOptions& options) {
   if (!(options.tile_size > 0.0) || !std::isfinite(options.tile_size)) {
     throw Error("tile_size " + number(options.tile_size) + " m: must be a positive length");
+  }
+  if (options.tile_size != std::round(options.tile_size)) {
+    throw Error("tile_size " + number(options.tile_size) +
+                " m: Autoware reads the tiles' corners as integers; give whole metres");
   }
   Tiler tiler(map_pcd, datum, options);
   AutowareSummary s;

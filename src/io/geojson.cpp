@@ -8,18 +8,36 @@ namespace {
 using nlohmann::json;
 
 /// [lon, lat, h] rounded to 1e-9 degrees (0.1 mm) and 0.1 mm.
-json position(const EnuFrame& frame, const Eigen::Vector3d& enu) {
-  const Datum g = frame.toGeodetic(enu);
+json rounded(const Eigen::Vector3d& llh) {
   const auto round = [](double v, double unit) { return std::round(v / unit) * unit; };
-  return json::array({round(g.lon, 1e-9), round(g.lat, 1e-9), round(g.alt, 1e-4)});
+  return json::array({round(llh.x(), 1e-9), round(llh.y(), 1e-9), round(llh.z(), 1e-4)});
+}
+
+Eigen::Vector3d lonLatHeight(const EnuFrame& frame, const Eigen::Vector3d& enu) {
+  const Datum g = frame.toGeodetic(enu);
+  return {g.lon, g.lat, g.alt};
+}
+
+json position(const EnuFrame& frame, const Eigen::Vector3d& enu) {
+  return rounded(lonLatHeight(frame, enu));
 }
 
 json line(const EnuFrame& frame, const std::string& name, const Trajectory& t) {
-  json coordinates = json::array();
-  for (const Pose& p : t) coordinates.push_back(position(frame, p.position));
+  std::vector<Eigen::Vector3d> llh;
+  llh.reserve(t.size());
+  for (const Pose& p : t) llh.push_back(lonLatHeight(frame, p.position));
+  json parts = json::array();
+  for (const auto& part : cutAtAntimeridian(llh)) {
+    json coordinates = json::array();
+    for (const auto& q : part) coordinates.push_back(rounded(q));
+    parts.push_back(std::move(coordinates));
+  }
+  const json geometry = parts.size() == 1
+                            ? json{{"type", "LineString"}, {"coordinates", parts[0]}}
+                            : json{{"type", "MultiLineString"}, {"coordinates", parts}};
   return {{"type", "Feature"},
           {"properties", {{"kind", "trajectory"}, {"name", name}, {"poses", t.size()}}},
-          {"geometry", {{"type", "LineString"}, {"coordinates", coordinates}}}};
+          {"geometry", geometry}};
 }
 
 json point(const EnuFrame& frame, const Eigen::Vector3d& enu, json properties) {
@@ -29,6 +47,25 @@ json point(const EnuFrame& frame, const Eigen::Vector3d& enu, json properties) {
 }
 
 }  // namespace
+
+std::vector<std::vector<Eigen::Vector3d>> cutAtAntimeridian(
+    const std::vector<Eigen::Vector3d>& line) {
+  std::vector<std::vector<Eigen::Vector3d>> parts(1);
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    if (i > 0 && std::abs(line[i].x() - line[i - 1].x()) > 180.0) {
+      const Eigen::Vector3d& a = line[i - 1];
+      const double east = a.x() > 0.0 ? 180.0 : -180.0;  // the side a is on
+      const double b_lon = line[i].x() + 2.0 * east;     // b unwrapped beyond a's side
+      const double f = (east - a.x()) / (b_lon - a.x());
+      const Eigen::Vector3d at = a + f * (Eigen::Vector3d(b_lon, line[i].y(), line[i].z()) - a);
+      parts.back().emplace_back(east, at.y(), at.z());
+      parts.emplace_back();
+      parts.back().emplace_back(-east, at.y(), at.z());
+    }
+    parts.back().push_back(line[i]);
+  }
+  return parts;
+}
 
 std::string trajectoriesGeojson(const GeoreferenceResult& r) {
   if (!r.datum) throw Error("trajectories.geojson: the run has no datum (local GNSS)");

@@ -13,6 +13,7 @@
 #include "flexcloud/io/geojson.h"
 #include "flexcloud/io/report_plot.h"
 #include "flexcloud/io/text_io.h"
+#include "staging.h"
 
 namespace flexcloud {
 namespace {
@@ -111,48 +112,6 @@ json clockJson(const GeoreferenceResult& r) {
   return j;
 }
 
-/// A staging folder inside the output folder; removed with whatever is left in it.
-class Staging {
- public:
-  explicit Staging(const std::string& dir) : dir_(dir), created_(!fs::exists(dir)) {
-    makeDirectories(dir);
-    stage_ = (fs::path(dir) / (".flexcloud-staging-" + std::to_string(::getpid()))).string();
-    std::error_code ec;
-    fs::remove_all(stage_, ec);
-    makeDirectories(stage_);
-  }
-  ~Staging() {
-    std::error_code ec;
-    fs::remove_all(stage_, ec);
-    if (created_ && !committed_) fs::remove(dir_, ec);  // only if empty: nothing else was there
-  }
-  const std::string& folder() const { return stage_; }
-  std::string path(const std::string& name) {
-    names_.push_back(name);
-    return (fs::path(stage_) / name).string();
-  }
-  /// Moves every staged file into place in the order they were named.
-  void commit() {
-    for (const auto& n : names_) {
-      const fs::path from = fs::path(stage_) / n;
-      const fs::path to = fs::path(dir_) / n;
-      std::error_code ec;
-      if (fs::is_directory(from) && fs::exists(to)) fs::remove_all(to, ec);
-      if (std::rename(from.c_str(), to.c_str()) != 0) {
-        throw Error(to.string() + ": cannot move the finished file into place");
-      }
-    }
-    committed_ = true;
-  }
-
- private:
-  std::string dir_;
-  bool created_;
-  bool committed_ = false;
-  std::string stage_;
-  std::vector<std::string> names_;
-};
-
 json exportsJson(const ExportSummary& e) {
   json j;
   j["trajectories_geojson"] = e.geojson;
@@ -176,6 +135,25 @@ json exportsJson(const ExportSummary& e) {
 }
 
 constexpr const char* kMapFile = "map_georeferenced.pcd";
+
+/// Every output a run may write: those of an earlier run into the same folder that this run
+/// does not write are removed when it commits.
+const std::vector<std::string> kOutputNames = {kMapFile,
+                                               "map_georeferenced.las",
+                                               "autoware",
+                                               "trajectory_gnss.txt",
+                                               "trajectory_slam.txt",
+                                               "trajectory_aligned.txt",
+                                               "trajectory_rubbersheet.txt",
+                                               "trajectory_rubbersheet_gnss_clock.txt",
+                                               "trajectory_fused.txt",
+                                               "trajectory_fused_gnss_clock.txt",
+                                               "control_points.txt",
+                                               "gnss_fixes.txt",
+                                               "origin.yaml",
+                                               "trajectories.geojson",
+                                               "report.png",
+                                               "report.json"};
 
 /// The text files every run writes.
 void writeRunFiles(Staging& stage, const GeoreferenceResult& r, const RunContext& run,
@@ -424,11 +402,11 @@ void checkExports(const GeoreferenceResult& r, const Params& params) {
     MapProjection(*r.datum, projector);
 }
 
-ExportSummary writeOutputs(const std::string& dir, const GeoreferenceResult& r,
-                           const Params& params, const MapWriter& write_map,
-                           const RunContext& run) {
-  checkExports(r, params);
-  Staging stage(dir);
+namespace {
+
+/// writeOutputs once the staging folder exists.
+ExportSummary writeStaged(Staging& stage, const std::string& dir, const GeoreferenceResult& r,
+                          const Params& params, const MapWriter& write_map, const RunContext& run) {
   ExportSummary e;
   writeRunFiles(stage, r, run, e);
   // The picture needs only the run's files: drawn while the map is warped and written.
@@ -449,8 +427,22 @@ ExportSummary writeOutputs(const std::string& dir, const GeoreferenceResult& r,
   if (run.measure_peak) measured.peak_memory_mb = run.measure_peak();
   writeTextFile(stage.path("report.json"), reportJson(r, params, measured, &e));
   run.cancel->check(dir + ": before the outputs were moved into place");
-  stage.commit();
+  stage.commit("report.json", kOutputNames);
   return e;
+}
+
+}  // namespace
+
+ExportSummary writeOutputs(const std::string& dir, const GeoreferenceResult& r,
+                           const Params& params, const MapWriter& write_map,
+                           const RunContext& run) {
+  checkExports(r, params);
+  Staging stage(dir);
+  try {
+    return writeStaged(stage, dir, r, params, write_map, run);
+  } catch (const Error& error) {
+    throw Error(stage.userMessage(error.what()));
+  }
 }
 
 }  // namespace flexcloud

@@ -30,7 +30,9 @@ Table parseTable(const std::string& text, const std::string& name,
                  StampUnit unit) {
   Table t;
   std::vector<std::string> stamp_text;
-  std::istringstream in(text);
+  // A byte order mark (editors on Windows write one) is not part of the first line.
+  const std::string bom = "\xEF\xBB\xBF";
+  std::istringstream in(text.compare(0, bom.size(), bom) == 0 ? text.substr(bom.size()) : text);
   std::string line;
   std::size_t line_no = 0;
   while (std::getline(in, line)) {

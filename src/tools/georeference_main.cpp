@@ -4,11 +4,15 @@
 // unless the run completes.
 
 #include <ros/time.h>
+#include <yaml-cpp/yaml.h>
 
+#include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <map>
+#include <optional>
 
 #include "cli.h"
 #include "flexcloud/cloud_warp.h"
@@ -62,7 +66,9 @@ options:
   --las                   also write DIR/map_georeferenced.las (LAS 1.4, UTM zone of the datum)
   --to-ll FILE            also convert the points in FILE ("x y z" per line, map frame) through
                           the result to WGS84: DIR/points_ll.txt "x y z lat lon alt"
-  --truth FILE.pcd        ground-truth map in the output ENU frame (same points, same order):
+  --truth FILE.pcd        ground-truth map (same points, same order) in the ENU frame of the
+                          datum in truth.yaml beside it (as simulate_drive writes) or given by
+                          --truth-datum LAT LON ALT; the run's datum must be the same (--datum):
                           the report then holds the map error before and after
   -q, --quiet             no progress on stderr
   -h, --help
@@ -70,6 +76,7 @@ options:
 
 struct Options {
   std::string bag, fix_topic, odom_topic, gnss, poses, map, truth, config, to_ll;
+  std::optional<Datum> truth_datum;  ///< the datum the truth is in (--truth-datum, truth.yaml)
   std::string out = "flexcloud_out";
   bool gnss_local = false;
   bool quiet = false;
@@ -85,6 +92,23 @@ const std::map<std::string, std::string> kValueShortcuts = {
     {"--tile-size", "tile_size"},
     {"--projector", "projector"}};
 const std::map<std::string, std::string> kSwitches = {{"--autoware", "autoware"}, {"--las", "las"}};
+
+/// The datum of a truth map from truth.yaml in its folder; throws UsageError when there is none
+/// (a truth in another ENU frame would report metres of error that are not there).
+Datum datumBeside(const std::string& truth) {
+  const std::string yaml = (std::filesystem::path(truth).parent_path() / "truth.yaml").string();
+  if (!std::filesystem::exists(yaml)) {
+    throw UsageError("--truth " + truth + ": give the datum it was made in (--truth-datum LAT " +
+                     "LON ALT, or a truth.yaml beside it)");
+  }
+  try {
+    const YAML::Node d = YAML::LoadFile(yaml)["datum"];
+    return Datum{d["latitude"].as<double>(), d["longitude"].as<double>(),
+                 d["altitude"].as<double>()};
+  } catch (const YAML::Exception& e) {
+    throw Error(yaml + ": no datum latitude, longitude, altitude (" + e.what() + ")");
+  }
+}
 
 Options parseOptions(int argc, char** argv) {
   cli::Args a(argc, argv);
@@ -133,6 +157,9 @@ Options parseOptions(int argc, char** argv) {
       o.sets.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
     } else if (f == "--truth") {
       o.truth = a.text(f);
+    } else if (f == "--truth-datum") {
+      const double lat = a.number(f), lon = a.number(f), alt = a.number(f);
+      o.truth_datum = Datum{lat, lon, alt};
     } else if (f == "-q" || f == "--quiet") {
       o.quiet = true;
     } else {
@@ -145,6 +172,7 @@ Options parseOptions(int argc, char** argv) {
     throw UsageError("give --bag FILE, or both --gnss FILE and --poses FILE");
   }
   if (!o.truth.empty() && o.map.empty()) throw UsageError("--truth needs --map");
+  if (!o.truth.empty() && !o.truth_datum) o.truth_datum = datumBeside(o.truth);
   return o;
 }
 
@@ -267,6 +295,23 @@ bool checkMap(const Options& o, MapInfo& info) {
   return true;
 }
 
+/// Refuses a truth made in another ENU frame than the run's.
+void checkTruthFrame(const Options& o, const GeoreferenceResult& r) {
+  if (o.truth.empty()) return;
+  const Datum& t = *o.truth_datum;
+  char buf[160];
+  std::snprintf(buf, sizeof(buf), "%.9f %.9f %.4f", t.lat, t.lon, t.alt);
+  if (!r.datum) {
+    throw Error("--truth: the GNSS came without a datum; give --datum " + std::string(buf));
+  }
+  const Datum& d = *r.datum;
+  if (std::abs(d.lat - t.lat) > 1e-9 || std::abs(d.lon - t.lon) > 1e-9 ||
+      std::abs(d.alt - t.alt) > 1e-4) {
+    throw Error("--truth " + o.truth + ": the truth is in the ENU frame of the datum " + buf +
+                ", this run's datum is another; give --datum " + buf);
+  }
+}
+
 /// The writer that streams a map (any encoding) through the warp into the output.
 MapWriter streamedMap(const Options& o, const Params& params, const GeoreferenceResult& r,
                       const Progress& log, MapInfo& info, MapPrecopy* precopy) {
@@ -301,6 +346,7 @@ int run(int argc, char** argv) {
   log.say("georeferencing");
   const GeoreferenceResult r = georeference(drive, params);
   if (!o.to_ll.empty() && !r.datum) throw Error("--to-ll: the GNSS came without a datum");
+  checkTruthFrame(o, r);
   checkCancel();
 
   const MapWriter write_map =

@@ -140,6 +140,33 @@ TEST_F(Tools, BagWithMapGivesEveryOutputAndAccurateMap) {
   EXPECT_NE(r.output.find("map vs truth"), std::string::npos);
 }
 
+/// A truth map is only compared in its own ENU frame: without its datum, or with a run in
+/// another datum, the tool refuses in one line instead of reporting metres of error that are
+/// not there.
+TEST_F(Tools, ATruthIsComparedInItsOwnFrameOnly) {
+  const std::string run = bin("georeference") + " -q --bag " + sim() + "/drive.bag --map " + sim() +
+                          "/map.pcd --out " + out("truth_frame");
+  const Result other = sh(run + " --truth " + sim() + "/truth_map.pcd");  // datum: first fix
+  EXPECT_EQ(other.code, 1) << other.output;
+  EXPECT_NE(other.output.find("the truth is in the ENU frame of the datum 48.262000000 "
+                              "11.667000000 480.0000, this run's datum is another; give --datum"),
+            std::string::npos)
+      << other.output;
+  const std::string lone = out("lone_truth.pcd");
+  fs::copy_file(sim() + "/truth_map.pcd", lone, fs::copy_options::overwrite_existing);
+  const Result none = sh(run + datum() + " --truth " + lone);
+  EXPECT_EQ(none.code, 2) << none.output;
+  EXPECT_NE(none.output.find("give the datum it was made in (--truth-datum LAT LON ALT"),
+            std::string::npos)
+      << none.output;
+  const Result given =
+      sh(run + datum() + " --truth " + lone + " --truth-datum 48.2620 11.6670 480");
+  EXPECT_EQ(given.code, 0) << given.output;
+  EXPECT_LT(readJson(out("truth_frame") + "/report.json")["map_vs_truth"]["rubbersheet"]["rmse"]
+                .get<double>(),
+            0.3);
+}
+
 TEST_F(Tools, TextFilesGiveTheSameGeoreferencing) {
   const std::string a = out("text"), b = out("bag2");
   ASSERT_EQ(sh(bin("georeference") + " --gnss " + sim() + "/gnss.txt --poses " + sim() +
@@ -173,6 +200,21 @@ TEST_F(Tools, ConfigFileAndFlagsSetTheParameters) {
                 .code,
             0);  // the flag wins over the file
   EXPECT_EQ(readJson(o + "/report.json")["counts"]["control_points"], 30);
+  EXPECT_TRUE(readJson(o + "/report.json")["warnings"].empty());
+  // More than the drive's poses can carry: capped, and the report says so.
+  ASSERT_EQ(sh(bin("georeference") + " --bag " + sim() + "/drive.bag -q --control-points 50000 " +
+               "--out " + o)
+                .code,
+            0);
+  const nlohmann::json report = readJson(o + "/report.json");
+  const int placed = report["counts"]["control_points"];
+  EXPECT_LT(placed, 50000);
+  bool said = false;
+  for (const std::string w : report["warnings"]) {
+    said = said ||
+           w.rfind("control_points 50000 asked for, " + std::to_string(placed) + " placed", 0) == 0;
+  }
+  EXPECT_TRUE(said) << report["warnings"].dump();
 }
 
 TEST_F(Tools, BadInputIsAOneLineErrorAndKeepsPreviousOutputs) {
@@ -339,6 +381,67 @@ TEST_F(Tools, AnInterruptedWarpLeavesThePreviousOutputs) {
     for (const auto& e : fs::directory_iterator(o)) ++entries, (void)e;
     EXPECT_EQ(entries, 2u) << "nothing else may be left behind";
   }
+}
+
+/// kill -9 in the middle of the map leaves its staging folder; the next run into the folder
+/// removes it, and leaves only its own outputs: the earlier map it did not write goes, the
+/// user's own file stays.
+TEST_F(Tools, AKilledRunLeavesNothingTheNextRunKeeps) {
+  const std::string big = out("big_killed");
+  ASSERT_EQ(sh(bin("simulate_drive") + " --out " + big + " --map-points 2000000 --seed 9").code, 0);
+  const std::string o = out("killed");
+  fs::create_directories(o);
+  std::ofstream(o + "/notes.txt") << "the user's\n";
+  const Result r = interruptDuringWarp({bin("georeference"), "--bag", big + "/drive.bag", "--map",
+                                        big + "/map.pcd", "--out", o, "--threads", "1"},
+                                       SIGKILL);
+  EXPECT_EQ(r.code, -1) << r.output;
+  auto staging = [&] {
+    std::size_t n = 0;
+    for (const auto& e : fs::directory_iterator(o)) {
+      n += e.path().filename().string().rfind(".flexcloud-staging-", 0) == 0 ? 1 : 0;
+    }
+    return n;
+  };
+  EXPECT_EQ(staging(), 1u);  // what kill -9 leaves
+  ASSERT_EQ(sh(bin("georeference") + " -q --bag " + sim() + "/drive.bag --map " + sim() +
+               "/map.pcd --out " + o + datum())
+                .code,
+            0);
+  EXPECT_EQ(staging(), 0u);
+  EXPECT_TRUE(fs::exists(o + "/map_georeferenced.pcd"));
+  // A run without a map into the same folder: the map of the run before is not its output.
+  const Result t = sh(bin("georeference") + " -q --gnss " + sim() + "/gnss.txt --poses " + sim() +
+                      "/slam_trajectory.txt --out " + o + datum());
+  ASSERT_EQ(t.code, 0) << t.output;
+  EXPECT_FALSE(fs::exists(o + "/map_georeferenced.pcd"));
+  EXPECT_TRUE(fs::exists(o + "/report.json"));
+  EXPECT_EQ(readJson(o + "/report.json")["counts"]["map_points"], 0);
+  std::ifstream notes(o + "/notes.txt");
+  std::string line;
+  std::getline(notes, line);
+  EXPECT_EQ(line, "the user's");
+}
+
+/// A full disk: the error names the folder the user gave (not the staging folder inside it),
+/// and nothing is left there.
+TEST_F(Tools, AFullDiskIsNamedByTheUsersFolder) {
+  const std::string mnt = out("small_disk");
+  fs::create_directories(mnt);
+  if (sh("mount -t tmpfs -o size=96k tmpfs " + mnt).code != 0) {
+    GTEST_SKIP() << "cannot mount a small tmpfs here (needs root); skipped";
+  }
+  const std::string o = mnt + "/result";
+  const Result r = sh(bin("georeference") + " -q --bag " + sim() + "/drive.bag --map " + sim() +
+                      "/map.pcd --out " + o + datum());
+  std::size_t left = 0;
+  for (const auto& e : fs::directory_iterator(mnt)) ++left, (void)e;
+  sh("umount " + mnt);
+  EXPECT_EQ(r.code, 1) << r.output;
+  EXPECT_EQ(r.output.rfind("georeference: " + o + "/", 0), 0u) << r.output;
+  EXPECT_EQ(r.output.find(".flexcloud-staging"), std::string::npos) << r.output;
+  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  EXPECT_EQ(left, 0u) << "the folder the run made is removed again";
 }
 
 TEST_F(Tools, SimulatorRejectsBadSettings) {

@@ -87,6 +87,70 @@ def xyz(points):
     return np.column_stack([points["x"], points["y"], points["z"]]).astype(np.float64)
 
 
+# ---- the Autoware map as Autoware's loaders read it -----------------------------------------
+# Written from autoware.universe's map_projection_loader (load_info_from_yaml) and
+# pointcloud_map_loader (load_pcd_metadata), not from flexcloud's writer.
+
+def autoware_projector_info(path):
+    """map_projector_info.yaml as map_projection_loader takes it: for LocalCartesian,
+    LocalCartesianUTM and TransverseMercator the origin's latitude and longitude, and altitude 0
+    whatever the file says (map z is the height in the vertical datum); MGRS: the grid."""
+    data = yaml.safe_load(pathlib.Path(path).read_text())
+    info = {"projector_type": data["projector_type"]}
+    if info["projector_type"] == "MGRS":
+        info.update(vertical_datum=data["vertical_datum"], mgrs_grid=data["mgrs_grid"])
+    elif info["projector_type"] in ("LocalCartesian", "LocalCartesianUTM", "TransverseMercator"):
+        info.update(vertical_datum=data["vertical_datum"],
+                    latitude=float(data["map_origin"]["latitude"]),
+                    longitude=float(data["map_origin"]["longitude"]), altitude=0.0)
+    else:
+        raise AssertionError(f"Autoware has no projector {info['projector_type']!r}")
+    return info
+
+
+def autoware_metadata(path):
+    """pointcloud_map_metadata.yaml as pointcloud_map_loader takes it: each tile's corner as a
+    pair of integers (yaml-cpp's as<std::vector<int>> refuses anything else)."""
+    data = yaml.safe_load(pathlib.Path(path).read_text())
+    size = (float(data.pop("x_resolution")), float(data.pop("y_resolution")))
+    tiles = {}
+    for name, corner in data.items():
+        if len(corner) != 2 or not all(type(v) is int for v in corner):
+            raise AssertionError(f"{name}: corner {corner} is not two integers")
+        tiles[name] = tuple(corner)
+    return size, tiles
+
+
+def autoware_to_geodetic(info, points, datum):
+    """Tile points (N x 3) -> lon, lat, ellipsoidal height, the way Autoware reverses its
+    projectors (GeographicLib LocalCartesian at height `altitude`; UTM of the origin plus x, y;
+    the MGRS square's corner plus x, y; z + altitude)."""
+    kind = info["projector_type"]
+    if kind == "LocalCartesian":
+        lon, lat, h = enu_to_geodetic((info["latitude"], info["longitude"], info["altitude"])
+                                      ).transform(points[:, 0], points[:, 1], points[:, 2])
+        return np.column_stack([lon, lat, h])
+    epsg = utm_epsg(datum[0], datum[1])
+    to_utm_crs = Transformer.from_crs("EPSG:4326", f"EPSG:{epsg}", always_xy=True)
+    if kind == "LocalCartesianUTM":
+        e0, n0 = to_utm_crs.transform(info["longitude"], info["latitude"])
+        z0 = info["altitude"]
+    else:  # MGRS: the south-west corner of the datum's 100 km square
+        e, n = to_utm_crs.transform(datum[1], datum[0])
+        e0, n0, z0 = np.floor(e / 1e5) * 1e5, np.floor(n / 1e5) * 1e5, 0.0
+    lon, lat = Transformer.from_crs(f"EPSG:{epsg}", "EPSG:4326", always_xy=True).transform(
+        points[:, 0] + e0, points[:, 1] + n0)
+    return np.column_stack([lon, lat, points[:, 2] + z0])
+
+
+def geodetic_distance(a, b):
+    """Largest distance (m) between lon, lat, h rows, by the local metres per degree."""
+    lat = np.radians(a[:, 1])
+    d = np.column_stack([(a[:, 0] - b[:, 0]) * 111320.0 * np.cos(lat),
+                         (a[:, 1] - b[:, 1]) * 110950.0, a[:, 2] - b[:, 2]])
+    return np.linalg.norm(d, axis=1).max()
+
+
 def las_reader():
     """The folder with loaders.gl installed (npm, once) and the reader script."""
     folder = ROOT / "out" / "las_reader"
@@ -128,10 +192,9 @@ class Outputs(unittest.TestCase):
         return folder, meta, info
 
     def test_every_point_is_in_exactly_one_tile_within_its_stated_bounds(self):
-        folder, meta, _ = self.tiles("local_cartesian")
-        size = meta.pop("x_resolution")
-        self.assertEqual(meta.pop("y_resolution"), size)
-        self.assertEqual(size, 20)
+        folder, _, _ = self.tiles("local_cartesian")
+        (size, size_y), meta = autoware_metadata(folder / "pointcloud_map_metadata.yaml")
+        self.assertEqual((size, size_y), (20.0, 20.0))
         files = sorted(p.name for p in (folder / "pointcloud_map").iterdir())
         self.assertEqual(files, sorted(meta))
         parts = []
@@ -143,25 +206,33 @@ class Outputs(unittest.TestCase):
             parts.append(t)
         tiled = np.concatenate(parts)
         self.assertEqual(len(tiled), len(self.map))
-        # The same points with every field, byte for byte, each once (LocalCartesian moves none).
-        a = np.sort(self.map.view(np.dtype((np.void, self.map.dtype.itemsize))))
+        # The same points with every field, each once: LocalCartesian keeps x and y byte for
+        # byte and gives z as the ellipsoidal height (the map's ENU z plus the datum's height).
+        moved = self.map.copy()
+        moved["z"] = (self.map["z"].astype(np.float64) + DATUM[2]).astype(moved["z"].dtype)
+        a = np.sort(moved.view(np.dtype((np.void, moved.dtype.itemsize))))
         b = np.sort(tiled.view(np.dtype((np.void, tiled.dtype.itemsize))))
         self.assertTrue(np.array_equal(a, b))
         print(f"local_cartesian: {len(meta)} tiles, {len(tiled)} points")
 
     def check_projector(self, projector, expected_type, to_frame):
-        folder, meta, info = self.tiles(projector)
+        """Every sampled tile holds the map points pyproj puts into it, where pyproj puts them,
+        and Autoware's reading of the tiles gives each point's true latitude, longitude and
+        ellipsoidal height."""
+        folder, _, _ = self.tiles(projector)
+        info = autoware_projector_info(folder / "map_projector_info.yaml")
         self.assertEqual(info["projector_type"], expected_type)
         self.assertEqual(info["vertical_datum"], "WGS84")
-        self.assertAlmostEqual(info["map_origin"]["latitude"], DATUM[0], places=9)
-        self.assertAlmostEqual(info["map_origin"]["longitude"], DATUM[1], places=9)
-        self.assertAlmostEqual(info["map_origin"]["altitude"], DATUM[2], places=6)
-        size = meta.pop("x_resolution")
-        meta.pop("y_resolution")
+        if expected_type != "MGRS":
+            self.assertAlmostEqual(info["latitude"], DATUM[0], places=9)
+            self.assertAlmostEqual(info["longitude"], DATUM[1], places=9)
+        (size, _), meta = autoware_metadata(folder / "pointcloud_map_metadata.yaml")
         # Where each map point must go, by pyproj; tiles keep the map's order within a tile.
-        expected = to_frame(info, xyz(self.map))
+        enu = xyz(self.map)
+        expected = to_frame(enu)
+        truth = np.column_stack(enu_to_geodetic(DATUM).transform(enu[:, 0], enu[:, 1], enu[:, 2]))
         keys = np.floor(expected[:, :2] / size).astype(np.int64)
-        worst = 0.0
+        worst = worst_geo = 0.0
         names = sorted(meta)
         for name in names[:: max(1, len(names) // 40)]:
             x0, y0 = meta[name]
@@ -170,21 +241,30 @@ class Outputs(unittest.TestCase):
             want = expected[mine]
             self.assertEqual(len(t), len(want), name)
             # float32 storage: compare with pyproj's value stored the same way.
-            err = np.abs(xyz(t) - want.astype(np.float32).astype(np.float64)).max()
-            worst = max(worst, err)
+            worst = max(worst, np.abs(xyz(t) - want.astype(np.float32).astype(np.float64)).max())
+            got = autoware_to_geodetic(info, xyz(t), DATUM)
+            # float32 resolves 1/2 ulp of the largest coordinate on top of the 1 mm.
+            ulp = np.spacing(np.float32(np.abs(want).max()))
+            self.assertLess(geodetic_distance(got, truth[mine]), 1e-3 + ulp, name)
+            worst_geo = max(worst_geo, geodetic_distance(got, truth[mine]))
         self.assertLess(worst, 1e-3)
-        print(f"{projector}: {len(names)} tiles, largest difference from pyproj {worst * 1e3:.3f} mm")
+        print(f"{projector}: {len(names)} tiles, largest difference from pyproj {worst * 1e3:.3f} "
+              f"mm, read back as Autoware does {worst_geo * 1e3:.3f} mm from the true place")
         return info
 
+    def test_local_cartesian_tiles_have_the_height_autoware_reads(self):
+        self.check_projector("local_cartesian", "LocalCartesian",
+                             lambda enu: enu + [0.0, 0.0, DATUM[2]])
+
     def test_local_cartesian_utm_tiles_agree_with_pyproj(self):
-        def frame(info, enu):
+        def frame(enu):
             utm = to_utm(DATUM, enu)
             origin = to_utm(DATUM, np.zeros((1, 3)))[0]
-            return utm - [origin[0], origin[1], DATUM[2]]
+            return utm - [origin[0], origin[1], 0.0]
         self.check_projector("local_cartesian_utm", "LocalCartesianUTM", frame)
 
     def test_mgrs_tiles_agree_with_pyproj_inside_the_datums_square(self):
-        def frame(info, enu):
+        def frame(enu):
             utm = to_utm(DATUM, enu)
             origin = to_utm(DATUM, np.zeros((1, 3)))[0]
             corner = np.floor(origin[:2] / 1e5) * 1e5
@@ -318,6 +398,7 @@ class Outputs(unittest.TestCase):
     def test_bad_values_are_one_line_and_leave_no_folder(self):
         far = self.far_map()
         cases = [(["--autoware", "--tile-size", "0"], "tile_size"),
+                 (["--autoware", "--tile-size", "12.5"], "give whole metres"),
                  (["--autoware", "--projector", "utm"], "projector"),
                  (["--las", "--datum", "85", "11", "0"], "80 S to 84 N"),
                  (["--map", far, "--autoware"], "far.pcd (warped): a point at"),

@@ -72,11 +72,15 @@ TEST(Projection, UtmAgreesWithGeographicLibAndMgrsStaysInItsSquare) {
   const Datum datum{48.262, 11.667, 480.0};
   const MapProjection utm(datum, ProjectorType::kLocalCartesianUtm);
   EXPECT_EQ(utm.zone().epsg(), 32632);
-  // The datum itself: UTM origin, so (0, 0, 0).
-  EXPECT_LT(utm.fromEnu(Eigen::Vector3d::Zero()).norm(), 1e-6);
+  // The datum itself: UTM origin, at its ellipsoidal height (Autoware's z), so (0, 0, 480).
+  const Eigen::Vector3d origin = utm.fromEnu(Eigen::Vector3d::Zero());
+  EXPECT_LT((origin - Eigen::Vector3d(0.0, 0.0, 480.0)).norm(), 1e-6);
+  // The local Cartesian frame is ENU with z the ellipsoidal height.
+  const MapProjection local(datum, ProjectorType::kLocalCartesian);
+  EXPECT_LT((local.fromEnu({12.5, -3.0, 2.0}) - Eigen::Vector3d(12.5, -3.0, 482.0)).norm(), 1e-9);
   // 1 km east in ENU is not 1 km east in UTM: the grid turns by the meridian convergence
   // (1.99 degrees here by PROJ, east of the central meridian 9 E): 35 m north at 1 km.
-  const Eigen::Vector3d east = utm.fromEnu({1000.0, 0.0, 0.0});
+  const Eigen::Vector3d east = utm.fromEnu({1000.0, 0.0, 0.0}) - origin;
   EXPECT_NEAR(std::atan2(east.y(), east.x()) * 180.0 / M_PI, 1.99, 0.01);
   // Its length: 1 km at 480 m above the ellipsoid is 999.925 m on it (R / (R + h)), times the
   // UTM point scale 1.0000814 there (PROJ's factors for EPSG:32632 at the datum).

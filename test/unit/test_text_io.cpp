@@ -28,6 +28,16 @@ TEST(TextIo, SecondsStayAndCommasAreSeparators) {
   EXPECT_DOUBLE_EQ(ns[0].stamp, 1e-6);
 }
 
+TEST(TextIo, AByteOrderMarkIsSkipped) {
+  const auto t = parseTum(
+      "\xEF\xBB\xBF"
+      "1700000000.000000 1 2 3 0 0 0 1\n",
+      "bom.txt", StampUnit::kAuto);
+  ASSERT_EQ(t.size(), 1u);
+  EXPECT_DOUBLE_EQ(t[0].stamp, 1700000000.0);
+  EXPECT_DOUBLE_EQ(t[0].position.x(), 1.0);
+}
+
 TEST(TextIo, ErrorsNameTheFileAndLine) {
   try {
     parseTum("1 2 3 4 0 0 0 1\n2 3 4 5 6\n", "poses.txt", StampUnit::kAuto);
