@@ -5,8 +5,9 @@ usage: plot_report.py DIR
 
 Left: top view of the corrected trajectory coloured by the correction the rubber sheet applied
 (distance between the rigidly aligned and the corrected pose), the GNSS, the control points and
-the fixes the fusion rejected. Right: deviation from the GNSS along the drive, after the rigid
-alignment and after the rubber sheet. Exit 3 when matplotlib is missing, 1 on bad input.
+the fixes the fusion rejected, down-weighted or found above the std-dev threshold. Right:
+deviation from the GNSS along the drive, after the rigid alignment and after the rubber sheet,
+with a tick where such fixes were. Exit 3 when matplotlib is missing, 1 on bad input.
 """
 import os
 import sys
@@ -30,18 +31,36 @@ def load(path, usecols=None, dtype=float):
     return a
 
 
-def rejected_fixes(path):
-    """x, y of the fixes the fusion rejected as outliers."""
-    if not os.path.exists(path):
-        return np.zeros((0, 2))
-    rows = []
-    with open(path) as f:
-        for line in f:
-            parts = line.split()
-            if line.startswith("#") or len(parts) < 7 or parts[6] != "outlier":
-                continue
-            rows.append((float(parts[1]), float(parts[2])))
-    return np.array(rows).reshape(-1, 2)
+# Weight below which the fusion's robust loss has taken nine tenths of a fix's pull (a good
+# fix one sigma off keeps about half).
+DOWN_WEIGHTED = 0.1
+
+
+def judged_fixes(path):
+    """The fixes of gnss_fixes.txt by what the fusion made of them: a dict of stamp, x, y rows
+    (N x 3) for "rejected" (outliers), "down-weighted" (used, weight under DOWN_WEIGHTED) and
+    "above threshold" (std-dev above stddev_threshold: no control point there)."""
+    rows = {"rejected": [], "down-weighted": [], "above threshold": []}
+    if os.path.exists(path):
+        with open(path) as f:
+            for line in f:
+                parts = line.split()
+                if line.startswith("#") or len(parts) < 7:
+                    continue
+                row = (float(parts[0]), float(parts[1]), float(parts[2]))
+                verdict, weight = parts[6], float(parts[5])
+                if verdict == "outlier":
+                    rows["rejected"].append(row)
+                elif verdict == "above_std_threshold":
+                    rows["above threshold"].append(row)
+                elif verdict == "used" and weight < DOWN_WEIGHTED:
+                    rows["down-weighted"].append(row)
+    return {k: np.array(v).reshape(-1, 3) for k, v in rows.items()}
+
+
+# How each kind of judged fix is drawn: colour, marker size, drawing order.
+FIX_STYLE = {"rejected": ("red", 10, 6), "down-weighted": ("tab:orange", 8, 5),
+             "above threshold": ("tab:purple", 6, 4)}
 
 
 def thinned(n, most=4000):
@@ -73,7 +92,7 @@ def main(folder):
     aligned = load(os.path.join(folder, "trajectory_aligned.txt"))
     corrected = load(os.path.join(folder, "trajectory_rubbersheet.txt"))
     cps = load(os.path.join(folder, "control_points.txt"))
-    rejected = rejected_fixes(os.path.join(folder, "gnss_fixes.txt"))
+    judged = judged_fixes(os.path.join(folder, "gnss_fixes.txt"))
     if len(corrected) == 0 or len(aligned) != len(corrected):
         print("plot_report: the trajectories are missing or differ in length", file=sys.stderr)
         return 1
@@ -90,9 +109,11 @@ def main(folder):
     if len(cps):
         top.scatter(cps[:, 5], cps[:, 6], marker="x", color="k", s=18, lw=0.8,
                     label=f"control points ({len(cps)})", zorder=3)
-    if len(rejected):
-        top.scatter(rejected[:, 0], rejected[:, 1], color="red", s=10,
-                    label=f"rejected fixes ({len(rejected)})", zorder=4)
+    for kind, fixes in judged.items():
+        if len(fixes):
+            color, size, order = FIX_STYLE[kind]
+            top.scatter(fixes[:, 1], fixes[:, 2], color=color, s=size, zorder=order,
+                        label=f"{kind} fixes ({len(fixes)})")
     top.set_aspect("equal", adjustable="datalim")
     top.set_xlabel("east (m)")
     top.set_ylabel("north (m)")
@@ -110,13 +131,22 @@ def main(folder):
                  label=f"rigid alignment (mean {before.mean():.3f} m)")
         dev.plot(s[idx], after, lw=0.8, color="tab:blue",
                  label=f"rubber sheet (mean {after.mean():.3f} m)")
+        # Where the GNSS was judged bad, a tick under the curves at the nearest pose's distance.
+        for kind, fixes in judged.items():
+            if len(fixes):
+                at = np.clip(np.searchsorted(corrected[:, 0], fixes[:, 0]), 0, len(s) - 1)
+                color, _, order = FIX_STYLE[kind]
+                dev.scatter(s[at], np.zeros(len(at)), marker="|", color=color, s=60,
+                            zorder=order, label=f"{kind} fixes")
         dev.legend(loc="upper right", fontsize=8)
     dev.set_xlabel("distance along the drive (m)")
     dev.set_ylabel("deviation from the GNSS (m)")
     dev.set_title("Deviation from the GNSS along the drive")
     dev.grid(alpha=0.3)
-    fig.suptitle(f"flexcloud: {len(corrected)} poses, {len(cps)} control points, "
-                 f"{len(rejected)} fixes rejected", fontsize=10)
+    fig.suptitle(f"flexcloud: {len(corrected)} poses, {len(cps)} control points; fixes: "
+                 f"{len(judged['rejected'])} rejected, {len(judged['down-weighted'])} "
+                 f"down-weighted, {len(judged['above threshold'])} above the std-dev threshold",
+                 fontsize=10)
     # A fixed layout: tight_layout measured every label again (0.1 s of a city run's plot).
     fig.subplots_adjust(left=0.065, right=0.985, bottom=0.09, top=0.9, wspace=0.12)
     fig.savefig(os.path.join(folder, "report.png"), dpi=110, pil_kwargs={"compress_level": 3})

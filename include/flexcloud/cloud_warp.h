@@ -32,6 +32,9 @@ struct WarpStats {
   std::size_t points = 0;
   std::size_t outside = 0;     ///< beyond the cuboid: moved by the rigid transform, counted
   std::size_t non_finite = 0;  ///< NaN/inf points: kept as they are, in place
+  /// Finite points before the warp (map frame), about 1000 evenly spread per call of
+  /// warpPoints(): enough to judge where the map lies against its trajectory.
+  std::vector<Eigen::Vector3d> sample;
 };
 
 /// Warps the xyz of every point with the rubber sheet (map frame -> ENU), on `threads` threads

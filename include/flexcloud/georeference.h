@@ -139,11 +139,16 @@ GeoreferenceResult georeference(const DriveInput& input, const Params& params,
 /// more than 10 % (the request capped by the poses with usable GNSS); "" otherwise.
 std::string controlPointShortfall(const ControlPointSelection& cp, std::size_t poses);
 
+/// The share of the map's sampled points farther than `distance` (m) from every pose, in the map
+/// frame: most of a map lies near the drive that made it.
+double shareFarFromPoses(const GeoreferenceResult& r, const WarpStats& map, double distance);
+
 /// What a user must read beside the result, one line each: a large share of the poses without
 /// GNSS or of the map beyond the GNSS coverage (moved by the rigid transform only; `map` null:
-/// no map), and revisit conflicts.
+/// no map), a map that lies mostly far from its poses (in another frame than `map_frame`?),
+/// control points short of those asked for, and revisit conflicts.
 std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Params& params,
-                                        const WarpStats* map);
+                                        const WarpStats* map, const std::string& map_frame = "map");
 
 /// The interpolated GNSS at every matched pose, stamped like the pose (identity orientation).
 Trajectory gnssTrajectory(const GeoreferenceResult& r);

@@ -404,6 +404,11 @@ static void prepareFor(const std::uint8_t* data, const XyzLayout& layout, const 
 WarpStats warpPoints(std::uint8_t* data, const XyzLayout& layout, const RubberSheet& sheet,
                      int threads, const std::string& name, const CancelToken& cancel) {
   const std::size_t n = layout.points;
+  WarpStats total;
+  for (std::size_t i = 0, stride = std::max<std::size_t>(1, n / 1000); i < n; i += stride) {
+    const Eigen::Vector3d p = layout.get(data + i * layout.point_step);
+    if (p.allFinite()) total.sample.push_back(p);
+  }
   prepareFor(data, layout, sheet, threads);
   // One contiguous range per thread: each keeps the previous point's tetrahedron as its guess.
   const auto parts = static_cast<std::size_t>(
@@ -419,7 +424,6 @@ WarpStats warpPoints(std::uint8_t* data, const XyzLayout& layout, const RubberSh
     }
   });
   cancel.check(name + ": warp");
-  WarpStats total;
   for (const auto& s : part) {
     total.points += s.points;
     total.outside += s.outside;

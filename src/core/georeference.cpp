@@ -7,6 +7,7 @@
 #include <limits>
 #include <sstream>
 
+#include "cell_hash.h"
 #include "flexcloud/interpolation.h"
 #include "flexcloud/metrics.h"
 #include "leave_out.h"
@@ -270,8 +271,30 @@ std::string controlPointShortfall(const ControlPointSelection& cp, std::size_t p
          "(at most one per pose; the drive has " + std::to_string(poses) + " poses)";
 }
 
+double shareFarFromPoses(const GeoreferenceResult& r, const WarpStats& map, double distance) {
+  if (map.sample.empty() || r.poses.empty()) return 0.0;
+  CellMap<std::vector<Eigen::Vector3d>> cells;
+  for (const Pose& p : r.poses) cells[cellOf(p.position, distance)].push_back(p.position);
+  std::size_t far = 0;
+  for (const Eigen::Vector3d& q : map.sample) {
+    const Cell c = cellOf(q, distance);
+    bool near = false;
+    for (int dx = -1; dx <= 1 && !near; ++dx) {
+      for (int dy = -1; dy <= 1 && !near; ++dy) {
+        for (int dz = -1; dz <= 1 && !near; ++dz) {
+          const auto it = cells.find(c + Cell(dx, dy, dz));
+          if (it == cells.end()) continue;
+          for (const auto& p : it->second) near = near || (p - q).norm() <= distance;
+        }
+      }
+    }
+    far += near ? 0 : 1;
+  }
+  return static_cast<double>(far) / static_cast<double>(map.sample.size());
+}
+
 std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Params& params,
-                                        const WarpStats* map) {
+                                        const WarpStats* map, const std::string& map_frame) {
   std::vector<std::string> out;
   auto percent = [](double share) { return std::to_string(std::lround(100.0 * share)) + " %"; };
   const double poses_without =
@@ -279,6 +302,12 @@ std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Param
   if (poses_without > params.max_uncovered_share) {
     out.push_back(percent(poses_without) + " of the poses have no GNSS: they are corrected by " +
                   "the nearest control points only, or by the rigid transform");
+  }
+  constexpr double kFar = 50.0;  // m: a LiDAR map holds most of its points nearer its drive
+  if (const double far = map ? shareFarFromPoses(r, *map, kFar) : 0.0; far > 0.5) {
+    out.push_back(percent(far) + " of the map points lie more " +
+                  "than 50 m from every pose: is the map in the frame of the poses, '" + map_frame +
+                  "'? A map shifted or turned against its poses is warped wrong");
   }
   if (map != nullptr && map->points > map->non_finite) {
     const double outside =

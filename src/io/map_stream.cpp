@@ -155,6 +155,7 @@ class MapJob {
     info_.warp.points += s.points;
     info_.warp.outside += s.outside;
     info_.warp.non_finite += s.non_finite;
+    info_.warp.sample.insert(info_.warp.sample.end(), s.sample.begin(), s.sample.end());
     if (t) compare(data, t, n, Eigen::Isometry3d::Identity(), warped_);
   }
 

@@ -282,7 +282,7 @@ std::string reportJson(const GeoreferenceResult& r, const Params& params, const 
     j["fusion"] = fusionJson(*r.fusion);
   }
   j["beside_points"] = {{"used", r.beside.size()}, {"left_out_folding", r.beside_folding}};
-  j["warnings"] = resultWarnings(r, params, map ? &map->warp : nullptr);
+  j["warnings"] = resultWarnings(r, params, map ? &map->warp : nullptr, run.frames.map);
   if (map != nullptr && map->has_truth) {
     j["map_vs_truth"] = {{"aligned", stats(map->truth_aligned)},
                          {"rubbersheet", stats(map->truth_rubbersheet)}};

@@ -404,7 +404,8 @@ std::shared_ptr<const NodeResult> GeoreferenceNode::run(const Job& job, const Ca
                                                    : std::string("map");
   s->map = warpMap(params, s->result, cancel, s->map_info);
   s->warnings = job.notes;
-  for (auto& w : resultWarnings(s->result, params.core, s->map ? &s->map_info.warp : nullptr)) {
+  const WarpStats* warp = s->map ? &s->map_info.warp : nullptr;
+  for (auto& w : resultWarnings(s->result, params.core, warp, s->frames.map)) {
     s->warnings.push_back(std::move(w));
   }
   s->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -229,7 +229,7 @@ DriveInput loadDrive(const Options& o, const Progress& log, std::string& map_fra
 }
 
 void printSummary(const GeoreferenceResult& r, const Params& params, const MapInfo* map,
-                  const std::string& out) {
+                  const std::string& out, const std::string& map_frame) {
   char line[512];
   std::snprintf(line, sizeof(line),
                 "flexcloud: %zu poses (%zu with GNSS), %zu control points, %zu tetrahedra\n",
@@ -262,7 +262,7 @@ void printSummary(const GeoreferenceResult& r, const Params& params, const MapIn
       std::cout << line;
     }
   }
-  for (const auto& w : resultWarnings(r, params, map ? &map->warp : nullptr)) {
+  for (const auto& w : resultWarnings(r, params, map ? &map->warp : nullptr, map_frame)) {
     std::cout << "  warning        " << w << "\n";
   }
   std::cout << "  outputs in     " << out << "\n";
@@ -372,7 +372,7 @@ int run(int argc, char** argv) {
             std::to_string(info.warp_seconds) + " s, write " + std::to_string(info.write_seconds) +
             " s");
   }
-  printSummary(r, params, has_map ? &info : nullptr, o.out);
+  printSummary(r, params, has_map ? &info : nullptr, o.out, context.frames.map);
   return 0;
 }
 

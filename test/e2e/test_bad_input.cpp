@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <functional>
 #include <random>
 
 #include "flexcloud/cloud_warp.h"
@@ -116,6 +117,40 @@ TEST(BadInput, PartialOverlapWarpsEverythingAndCountsTheUnmatched) {
   const ErrorStats e = mapError(d, r, &s);
   EXPECT_EQ(s.outside, 0u);  // the cuboid encloses the whole trajectory, matched or not
   EXPECT_TRUE(std::isfinite(e.rmse));
+}
+
+/// A map in another frame than its poses (shifted 500 m, or turned 90 degrees about the start)
+/// is warped, and the warning names the frame; the map in its own frame gets no such warning.
+TEST(BadInput, AMapInAnotherFrameIsNamed) {
+  const sim::SimDrive d = sim::simulateDrive(small());
+  const GeoreferenceResult r = georeference(inputOf(d), atSimDatum(d));
+  const auto warnings = [&](const std::function<Eigen::Vector3d(const Eigen::Vector3d&)>& move) {
+    pcl::PCLPointCloud2 cloud = sim::slamCloud(d.map);
+    const XyzLayout l = XyzLayout::of(cloud, "map");
+    for (std::size_t i = 0; i < l.points; ++i) {
+      std::uint8_t* p = cloud.data.data() + i * l.point_step;
+      l.set(p, move(l.get(p)));
+    }
+    const WarpStats s = warpCloud(cloud, *r.sheet, 0);
+    EXPECT_GT(s.sample.size(), 900u);
+    std::printf("map points farther than 50 m from every pose: %.3f\n",
+                shareFarFromPoses(r, s, 50.0));
+    std::string frame_warning;
+    for (const auto& w : resultWarnings(r, Params{}, &s, "slam_map")) {
+      if (w.find("from every pose") != std::string::npos) frame_warning = w;
+    }
+    return frame_warning;
+  };
+  EXPECT_EQ(warnings([](const Eigen::Vector3d& p) -> Eigen::Vector3d { return p; }), "");
+  const std::string shifted = warnings([](const Eigen::Vector3d& p) -> Eigen::Vector3d {
+    return p + Eigen::Vector3d(500.0, 0.0, 0.0);
+  });
+  EXPECT_NE(shifted.find("is the map in the frame of the poses, 'slam_map'?"), std::string::npos)
+      << shifted;
+  const std::string turned = warnings([](const Eigen::Vector3d& p) -> Eigen::Vector3d {
+    return Eigen::Vector3d(-p.y(), p.x(), p.z());
+  });
+  EXPECT_NE(turned.find("'slam_map'"), std::string::npos) << turned;
 }
 
 TEST(BadInput, PerfectlyFlatTrajectoryAndGnss) {

@@ -2,6 +2,7 @@
 the thinning of the trajectory's markers, against plain Python."""
 import importlib.util
 import pathlib
+import tempfile
 import unittest
 
 import numpy as np
@@ -31,6 +32,22 @@ class PlotReportTables(unittest.TestCase):
         for n, most, kept in [(100, 4000, 100), (4000, 4000, 4000), (4001, 4000, 2001),
                               (16667, 4000, 3334)]:
             self.assertEqual(len(range(n)[plot_report.thinned(n, most)]), kept)
+
+    def test_rejected_down_weighted_and_degraded_fixes_are_told_apart(self):
+        rows = ["# header", "10.0 1 2 3 0.01 0.9 used 0.01 0.02 0 0 0",
+                "10.2 4 5 6 3.50 0.0 outlier 0.01 0.02 0 0 0",
+                "10.4 7 8 9 0.40 0.05 used 2.0 4.0 0 0 0", "10.5 7 8 9 0.02 0.3 used 2.0 4.0 0 0 0",
+                "10.6 1 1 1 0.30 0.8 above_std_threshold 2.0 4.0 0 0 0",
+                "10.8 2 2 2 0.30 0.49 above_std_threshold 2.0 4.0 0 0 0",
+                "11.0 3 3 3 0.00 1.0 excluded_range 0.01 0.02 0 0 0"]
+        with tempfile.NamedTemporaryFile("w", suffix=".txt") as f:
+            f.write("\n".join(rows) + "\n")
+            f.flush()
+            judged = plot_report.judged_fixes(f.name)
+        self.assertEqual(judged["rejected"].tolist(), [[10.2, 4, 5]])
+        self.assertEqual(judged["down-weighted"].tolist(), [[10.4, 7, 8]])
+        self.assertEqual(judged["above threshold"][:, 0].tolist(), [10.6, 10.8])
+        self.assertEqual(plot_report.judged_fixes("/nonexistent")["rejected"].shape, (0, 3))
 
 
 if __name__ == "__main__":
