@@ -85,6 +85,17 @@ install_deps() {
   apt-get install -y -q --no-install-recommends "${missing[@]}" >&2
 }
 
+# The npm packages of the tests' independent LAS reader (test/las) in out/las_reader, installed
+# once (npm reaches its registry; the tests themselves never install anything).
+install_test_readers() {
+  local folder="${FLEXCLOUD_ROOT}/out/las_reader"
+  mkdir -p "${folder}"
+  cp "${FLEXCLOUD_ROOT}/test/las/package.json" "${FLEXCLOUD_ROOT}/test/las/read_las.mjs" "${folder}/"
+  [ -d "${folder}/node_modules/@loaders.gl/las" ] && return 0
+  log "installing the test's LAS reader (npm: @loaders.gl/las) into ${folder}"
+  npm install --no-audit --no-fund --prefix "${folder}" >&2
+}
+
 # The instrumented workspace: clang-14 with AddressSanitizer, UndefinedBehaviorSanitizer and
 # libFuzzer coverage; builds the unit and end-to-end tests, the tools and the fuzz targets.
 FLEXCLOUD_SAN_WS="${FLEXCLOUD_SAN_WS:-${FLEXCLOUD_ROOT}/.ws-sanitize}"

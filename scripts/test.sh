@@ -53,6 +53,7 @@ if [ "${suite}" = 1 ]; then
   cp -r "${FLEXCLOUD_WS}/build/test_results" "${results}/suite" 2>/dev/null || true
   # The README's commands as typed (with a catkin workspace and an install space of their own),
   # the packages the commands come from, the source format.
+  install_test_readers || fail "the tests' LAS reader could not be installed"
   log "running the README, packaging and format tests (log: ${results}/scripts.log)"
   (cd "${FLEXCLOUD_ROOT}/test/scripts" && \
     /usr/bin/python3 -m xmlrunner discover -p 'test_*.py' -o "${results}/scripts") \

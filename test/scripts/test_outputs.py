@@ -152,13 +152,13 @@ def geodetic_distance(a, b):
 
 
 def las_reader():
-    """The folder with loaders.gl installed (npm, once) and the reader script."""
+    """The folder with loaders.gl and the reader script, installed by scripts/test.sh
+    (install_test_readers in scripts/common.sh); the test installs nothing itself."""
     folder = ROOT / "out" / "las_reader"
-    folder.mkdir(parents=True, exist_ok=True)
+    if not (folder / "node_modules" / "@loaders.gl" / "las").exists():
+        raise AssertionError(f"{folder}: no LAS reader installed; scripts/test.sh installs it")
     for f in ("package.json", "read_las.mjs"):
         shutil.copy(ROOT / "test" / "las" / f, folder / f)
-    if not (folder / "node_modules" / "@loaders.gl" / "las").exists():
-        run("npm", "install", "--no-audit", "--no-fund", "--prefix", folder)
     return folder
 
 
