@@ -1,6 +1,7 @@
 # Fails the build when a translation unit of the core library included a ROS header (or our own
-# ROS layer). Reads the compiler's dependency files of the target: run with
-#   cmake -DDEP_DIR=<target's CMakeFiles dir> -P check_core_isolation.cmake
+# ROS layer), or, unless ALLOW_IO is set (the io library), an io header: flexcloud's own io
+# headers and sources, PCL, yaml-cpp, PROJ. Reads the compiler's dependency files of the target:
+#   cmake -DDEP_DIR=<target's CMakeFiles dir> [-DALLOW_IO=ON] -P check_core_isolation.cmake
 file(GLOB_RECURSE depfiles "${DEP_DIR}/*.o.d")
 if(NOT depfiles)
   message(FATAL_ERROR "core isolation check: no dependency files under ${DEP_DIR}")
@@ -11,5 +12,11 @@ foreach(f ${depfiles})
   string(REGEX MATCH "/include/(${ros_roots})/[^ \\\n]+" hit "${deps}")
   if(hit)
     message(FATAL_ERROR "the core library must not see ROS: ${f} depends on ${hit}")
+  endif()
+  if(NOT ALLOW_IO)
+    string(REGEX MATCH "(/include/flexcloud/io/|/src/io/|/pcl-[0-9.]+/|/yaml-cpp/|/include/proj)[^ \\\n]*" io_hit "${deps}")
+    if(io_hit)
+      message(FATAL_ERROR "the core library must not see io: ${f} depends on ${io_hit}")
+    endif()
   endif()
 endforeach()

@@ -2,8 +2,6 @@
 // Warping a point cloud of any layout: only the x, y, z fields change, in place; every other
 // field, the point order and the NaN points stay as they were.
 
-#include <pcl/PCLPointCloud2.h>
-
 #include <functional>
 
 #include "flexcloud/cancel.h"
@@ -19,11 +17,7 @@ struct XyzLayout {
   std::size_t point_step = 0;
   std::size_t points = 0;
 
-  /// Reads the layout; throws Error naming `name` when x/y/z are missing, not FLOAT32/FLOAT64,
-  /// outside the point, or the data size does not match points * point_step.
-  static XyzLayout of(const std::vector<pcl::PCLPointField>& fields, std::size_t point_step,
-                      std::size_t points, std::size_t data_size, const std::string& name);
-  static XyzLayout of(const pcl::PCLPointCloud2& cloud, const std::string& name);
+  // Read from a PCL cloud by xyzLayout() (flexcloud/io/cloud_layout.h).
   Eigen::Vector3d get(const std::uint8_t* point) const;
   void set(std::uint8_t* point, const Eigen::Vector3d& p) const;
 };
@@ -37,23 +31,15 @@ struct WarpStats {
   std::vector<Eigen::Vector3d> sample;
 };
 
-/// Warps the xyz of every point with the rubber sheet (map frame -> ENU), on `threads` threads
-/// (0: all cores). Throws Error("NAME: warp: cancelled") once `cancel` is cancelled (the
-/// points are then partly warped).
-WarpStats warpCloud(pcl::PCLPointCloud2& cloud, const RubberSheet& sheet, int threads,
-                    const std::string& name = "map", const CancelToken& cancel = neverCancelled());
-/// The same on a raw point buffer of the given layout.
+/// Warps the xyz of every point of a raw buffer of the given layout with the rubber sheet (map
+/// frame -> ENU), on `threads` threads (0: all cores). Throws Error("NAME: warp: cancelled")
+/// once `cancel` is cancelled (the points are then partly warped).
 WarpStats warpPoints(std::uint8_t* data, const XyzLayout& layout, const RubberSheet& sheet,
                      int threads, const std::string& name = "map",
                      const CancelToken& cancel = neverCancelled());
 
-/// Deviation of the cloud's points, mapped by `f`, from the same points of `truth` (same count,
-/// same order; NaN points skipped).
-ErrorStats compareClouds(const pcl::PCLPointCloud2& cloud, const pcl::PCLPointCloud2& truth,
-                         const std::function<Eigen::Vector3d(const Eigen::Vector3d&)>& f);
-
-/// The same on point buffers: `n` points of `a` (mapped by `f`) against those of `b`, added to
-/// `acc`.
+/// Deviation of `n` points of `a` (mapped by `f`) from the same points of `b`, added to
+/// `acc` (NaN points skipped).
 void comparePoints(const std::uint8_t* a, const XyzLayout& la, const std::uint8_t* b,
                    const XyzLayout& lb, std::size_t n,
                    const std::function<Eigen::Vector3d(const Eigen::Vector3d&)>& f,

@@ -13,44 +13,6 @@
 
 namespace flexcloud {
 
-XyzLayout XyzLayout::of(const pcl::PCLPointCloud2& cloud, const std::string& name) {
-  return of(cloud.fields, cloud.point_step, static_cast<std::size_t>(cloud.width) * cloud.height,
-            cloud.data.size(), name);
-}
-
-XyzLayout XyzLayout::of(const std::vector<pcl::PCLPointField>& fields, std::size_t point_step,
-                        std::size_t points, std::size_t data_size, const std::string& name) {
-  XyzLayout l;
-  l.point_step = point_step;
-  l.points = points;
-  if (data_size != l.points * l.point_step) {
-    throw Error(name + ": data holds " + std::to_string(data_size) + " bytes, but " +
-                std::to_string(l.points) + " points of " + std::to_string(l.point_step) +
-                " bytes need " + std::to_string(l.points * l.point_step));
-  }
-  const char* axes[3] = {"x", "y", "z"};
-  for (int a = 0; a < 3; ++a) {
-    bool found = false;
-    for (const auto& f : fields) {
-      if (f.name != axes[a]) continue;
-      found = true;
-      if (f.datatype != pcl::PCLPointField::FLOAT32 && f.datatype != pcl::PCLPointField::FLOAT64) {
-        throw Error(name + ": field " + f.name + " is not FLOAT32 or FLOAT64 (type " +
-                    std::to_string(f.datatype) + ")");
-      }
-      l.is_double[a] = f.datatype == pcl::PCLPointField::FLOAT64;
-      l.offset[a] = f.offset;
-      if (f.offset + (l.is_double[a] ? 8u : 4u) > l.point_step) {
-        throw Error(name + ": field " + f.name + " lies outside the point (offset " +
-                    std::to_string(f.offset) + ", point step " + std::to_string(l.point_step) +
-                    ")");
-      }
-    }
-    if (!found) throw Error(name + ": the cloud has no '" + axes[a] + "' field");
-  }
-  return l;
-}
-
 Eigen::Vector3d XyzLayout::get(const std::uint8_t* point) const {
   Eigen::Vector3d p;
   for (int a = 0; a < 3; ++a) {
@@ -77,11 +39,6 @@ void XyzLayout::set(std::uint8_t* point, const Eigen::Vector3d& p) const {
 }
 
 int resolveThreads(int requested) { return threadCount(requested); }
-
-WarpStats warpCloud(pcl::PCLPointCloud2& cloud, const RubberSheet& sheet, int threads,
-                    const std::string& name, const CancelToken& cancel) {
-  return warpPoints(cloud.data.data(), XyzLayout::of(cloud, name), sheet, threads, name, cancel);
-}
 
 namespace {
 
@@ -430,19 +387,6 @@ WarpStats warpPoints(std::uint8_t* data, const XyzLayout& layout, const RubberSh
     total.non_finite += s.non_finite;
   }
   return total;
-}
-
-ErrorStats compareClouds(const pcl::PCLPointCloud2& cloud, const pcl::PCLPointCloud2& truth,
-                         const std::function<Eigen::Vector3d(const Eigen::Vector3d&)>& f) {
-  const XyzLayout a = XyzLayout::of(cloud, "map");
-  const XyzLayout b = XyzLayout::of(truth, "truth");
-  if (a.points != b.points) {
-    throw Error("truth: " + std::to_string(b.points) + " points, the map has " +
-                std::to_string(a.points));
-  }
-  ErrorAccumulator acc;
-  comparePoints(cloud.data.data(), a, truth.data.data(), b, a.points, f, acc);
-  return acc.stats();
 }
 
 void comparePoints(const std::uint8_t* a, const XyzLayout& la, const std::uint8_t* b,

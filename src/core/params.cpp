@@ -56,7 +56,8 @@ ParamTable<P> makeTable() {
       datumRow("datum_alt", &P::datum_alt, -11000, 100000, "m",
                "Ellipsoidal altitude of the ENU datum; set with datum_lat and datum_lon"),
       realRow<P>("default_std_dev", &P::default_std_dev, 0.0, 0.0, 1000, "m",
-                 "Std-dev given to fixes whose covariance is unknown; 0 drops such fixes"),
+                 "Std-dev given to fixes whose covariance is unknown; 0: the fusion estimates it "
+                 "(with fusion false such fixes are dropped)"),
       realRow<P>("gnss_time_offset", &P::gnss_time_offset, 0.0, -86400, 86400, "s",
                  "Added to every GNSS stamp before matching (SLAM clock minus GNSS clock)"),
       realRow<P>("max_gnss_speed", &P::max_gnss_speed, 150.0, 0.1, 10000, "m/s",

@@ -19,6 +19,7 @@
 #include "../core/parallel.h"
 #include "flexcloud/cloud_warp.h"
 #include "flexcloud/io/atomic_file.h"
+#include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/io/pcd_stream.h"
 
 namespace flexcloud {
@@ -52,7 +53,7 @@ class Tiler {
       : path_(map_pcd), options_(o), projection_(datum, o.projector), reader_(map_pcd) {
     const PcdHeader& h = reader_.header();
     fields_ = pclFields(h);
-    layout_ = XyzLayout::of(fields_, h.point_step, h.points, h.points * h.point_step, map_pcd);
+    layout_ = xyzLayout(fields_, h.point_step, h.points, h.points * h.point_step, map_pcd);
   }
 
   const MapProjection& projection() const { return projection_; }

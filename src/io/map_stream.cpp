@@ -13,6 +13,7 @@
 
 #include "body_copy.h"
 #include "flexcloud/io/atomic_file.h"
+#include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/io/map_precopy.h"
 #include "flexcloud/io/pcd_ascii.h"
 #include "flexcloud/io/pcd_compressed.h"
@@ -42,10 +43,10 @@ class TruthSource {
     }
     if (h.data == PcdHeader::Data::kBinary) {
       reader_.emplace(path);
-      layout_ = XyzLayout::of(pclFields(h), h.point_step, h.points, h.points * h.point_step, path);
+      layout_ = xyzLayout(pclFields(h), h.point_step, h.points, h.points * h.point_step, path);
     } else {
       whole_ = readPcd(path);
-      layout_ = XyzLayout::of(*whole_, path);
+      layout_ = xyzLayout(*whole_, path);
     }
   }
   /// Points [first, first + n) of the truth.
@@ -120,7 +121,7 @@ class MapJob {
         options_(options),
         info_(info) {
     const PcdHeader& h = reader_.header();
-    layout_ = XyzLayout::of(fields_, h.point_step, h.points, h.points * h.point_step, in);
+    layout_ = xyzLayout(fields_, h.point_step, h.points, h.points * h.point_step, in);
     if (!options.truth.empty()) truth_.emplace(options.truth, h.points);
   }
 

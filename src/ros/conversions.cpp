@@ -4,6 +4,8 @@
 
 #include <cmath>
 
+#include "flexcloud/io/cloud_layout.h"
+
 namespace flexcloud::ros_conv {
 
 RawFix fromNavSatFix(const sensor_msgs::NavSatFix& msg) {
@@ -159,8 +161,9 @@ std::vector<pcl::PCLPointField> pclFields(const sensor_msgs::PointCloud2& msg) {
 }
 
 XyzLayout xyzLayout(const sensor_msgs::PointCloud2& msg, const std::string& name) {
-  return XyzLayout::of(pclFields(msg), msg.point_step,
-                       static_cast<std::size_t>(msg.width) * msg.height, msg.data.size(), name);
+  return flexcloud::xyzLayout(pclFields(msg), msg.point_step,
+                              static_cast<std::size_t>(msg.width) * msg.height, msg.data.size(),
+                              name);
 }
 
 }  // namespace flexcloud::ros_conv

@@ -138,6 +138,51 @@ std::vector<std::string> unknownNodeParams(const ros::NodeHandle& pnh) {
   return unknown;
 }
 
+namespace {
+
+/// "[min, max]" for numbers, the choices for words, "" otherwise.
+std::string rangeOf(const ParamSpec& s) {
+  if (s.type == ParamType::kReal || s.type == ParamType::kInt) {
+    return "[" + formatValue(s, ParamValue{s.min, "", {}}) + ", " +
+           formatValue(s, ParamValue{s.max, "", {}}) + "]";
+  }
+  std::string out;
+  for (const auto& c : s.choices) out += (out.empty() ? "" : ", ") + c;
+  return out;
+}
+
+/// The text with the characters a Markdown table cell cannot hold escaped.
+std::string cell(const std::string& text) {
+  std::string out;
+  for (char c : text) out += c == '|' ? std::string("\\|") : std::string(1, c);
+  return out.empty() ? " " : out;
+}
+
+}  // namespace
+
+std::string parametersMarkdown() {
+  std::string out =
+      "# Parameters\n\n"
+      "Generated from the parameter table (`src/core/params.cpp`, `src/ros/node_params.cpp`) by\n"
+      "`scripts/env.sh rosrun flexcloud flexcloud_parameters > doc/PARAMETERS.md`; a test checks\n"
+      "that this file matches the table. The same rows make `config/georeference.yaml`, the\n"
+      "dynamic_reconfigure `cfg/Georeference.cfg` and what `--config`, `--set` and the node's\n"
+      "rosparams accept.\n\n"
+      "Where: `all` applies to the offline tool (`--config FILE`, `--set NAME=VALUE`) and the\n"
+      "node (rosparam under its private name); `node` to the node only. Live: tunable while the\n"
+      "node runs (dynamic_reconfigure); the others are read when the node starts.\n\n"
+      "| name | default | range | unit | where | live | meaning |\n"
+      "|---|---|---|---|---|---|---|\n";
+  for (const auto& row : nodeParamTable().rows()) {
+    const ParamSpec& s = row.spec;
+    const bool core = paramTable().find(s.name) != nullptr;
+    out += "| `" + s.name + "` | " + cell(formatValue(s, s.def)) + " | " + cell(rangeOf(s)) +
+           " | " + cell(s.unit) + " | " + (core ? "all" : "node") + " | " +
+           (s.live ? "yes" : "no") + " | " + cell(s.doc) + " |\n";
+  }
+  return out;
+}
+
 // dynamic_reconfigure keeps a config as a message of named ints, doubles, strs and bools; the
 // table's live rows are copied through that form, so no field is named twice.
 namespace {

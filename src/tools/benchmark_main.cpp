@@ -25,6 +25,7 @@
 #include "flexcloud/cloud_warp.h"
 #include "flexcloud/georeference.h"
 #include "flexcloud/io/atomic_file.h"
+#include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/io/pcd_io.h"
 #include "flexcloud/io/text_io.h"
 #include "flexcloud/sim/sim_cloud.h"

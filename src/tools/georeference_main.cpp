@@ -18,6 +18,7 @@
 #include "flexcloud/cloud_warp.h"
 #include "flexcloud/frame_convert.h"
 #include "flexcloud/io/atomic_file.h"
+#include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/io/config.h"
 #include "flexcloud/io/map_precopy.h"
 #include "flexcloud/io/map_stream.h"
@@ -289,8 +290,8 @@ bool checkMap(const Options& o, MapInfo& info) {
   if (o.map.empty()) return false;
   const PcdHeader header = readPcdHeader(o.map);
   if (header.points == 0) throw Error(o.map + ": the map holds no points");
-  XyzLayout::of(pclFields(header), header.point_step, header.points,
-                header.points * header.point_step, o.map);
+  xyzLayout(pclFields(header), header.point_step, header.points, header.points * header.point_step,
+            o.map);
   info.input = o.map;
   return true;
 }

@@ -16,6 +16,7 @@
 
 #include "flexcloud/cloud_warp.h"
 #include "flexcloud/georeference.h"
+#include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/sim/sim_cloud.h"
 
 namespace flexcloud::test {

@@ -8,6 +8,7 @@
 
 #include "flexcloud/cloud_warp.h"
 #include "flexcloud/georeference.h"
+#include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/sim/sim_cloud.h"
 #include "test_util.h"
 
@@ -126,7 +127,7 @@ TEST(BadInput, AMapInAnotherFrameIsNamed) {
   const GeoreferenceResult r = georeference(inputOf(d), atSimDatum(d));
   const auto warnings = [&](const std::function<Eigen::Vector3d(const Eigen::Vector3d&)>& move) {
     pcl::PCLPointCloud2 cloud = sim::slamCloud(d.map);
-    const XyzLayout l = XyzLayout::of(cloud, "map");
+    const XyzLayout l = xyzLayout(cloud, "map");
     for (std::size_t i = 0; i < l.points; ++i) {
       std::uint8_t* p = cloud.data.data() + i * l.point_step;
       l.set(p, move(l.get(p)));

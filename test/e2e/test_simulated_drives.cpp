@@ -4,6 +4,7 @@
 #include "flexcloud/cloud_warp.h"
 #include "flexcloud/geodesy.h"
 #include "flexcloud/georeference.h"
+#include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/sim/scenarios.h"
 #include "flexcloud/sim/sim_cloud.h"
 #include "test_util.h"

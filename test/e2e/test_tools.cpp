@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "flexcloud/cloud_warp.h"
+#include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/io/pcd_io.h"
 #include "test_util.h"
 
@@ -57,7 +58,7 @@ class Tools : public ::testing::Test {
     }
     const pcl::PCLPointCloud2 x = readPcd(out(name) + "/map_georeferenced.pcd");
     const pcl::PCLPointCloud2 y = readPcd(binary + "/map_georeferenced.pcd");
-    const XyzLayout lx = XyzLayout::of(x, name), ly = XyzLayout::of(y, "binary");
+    const XyzLayout lx = xyzLayout(x, name), ly = xyzLayout(y, "binary");
     // (the same points; PCL's writers leave the padding bytes out, so the layouts differ)
     EXPECT_EQ(lx.points, ly.points);
     double worst = 0.0;
@@ -262,7 +263,7 @@ TEST_F(Tools, AsciiMapsAreStreamedAndTheirBadLinesNamed) {
   ASSERT_EQ(pcl::PCDWriter().writeASCII(ascii, map), 0);
   EXPECT_LT(warpedAgainstBinary(ascii, "ascii"), 1e-3)
       << "the ascii text rounds the input a little";
-  const XyzLayout la = XyzLayout::of(map, "map");
+  const XyzLayout la = xyzLayout(map, "map");
   const std::string args = " -q --bag " + sim() + "/drive.bag" + datum() + " --map ";
   EXPECT_EQ(readJson(out("ascii") + "/report.json")["counts"]["map_points"], la.points);
 

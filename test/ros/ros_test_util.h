@@ -13,6 +13,7 @@
 #include "flexcloud/Georeference.h"
 #include "flexcloud/Result.h"
 #include "flexcloud/cloud_warp.h"
+#include "flexcloud/io/cloud_layout.h"
 
 namespace flexcloud::test {
 

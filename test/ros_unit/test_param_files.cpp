@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <iterator>
 #include <regex>
 #include <set>
 
@@ -105,6 +106,19 @@ TEST(ParamFiles, TheYamlListsEveryRowAtItsDefault) {
   }
   for (const auto& row : nodeParamTable().rows()) {
     EXPECT_EQ(listed.count(row.spec.name), 1u) << row.spec.name << " is not in " << path;
+  }
+}
+
+TEST(ParamFiles, DocParametersIsTheTable) {
+  const std::string path = std::string(FLEXCLOUD_SOURCE_DIR) + "/doc/PARAMETERS.md";
+  std::ifstream in(path);
+  ASSERT_TRUE(in) << path;
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(text, parametersMarkdown())
+      << path << " differs from the table: scripts/env.sh rosrun flexcloud flexcloud_parameters > "
+      << "doc/PARAMETERS.md";
+  for (const auto& row : nodeParamTable().rows()) {
+    EXPECT_NE(text.find("| `" + row.spec.name + "` |"), std::string::npos) << row.spec.name;
   }
 }
 

@@ -7,6 +7,7 @@
 #include <random>
 
 #include "flexcloud/cloud_warp.h"
+#include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/io/pcd_io.h"
 
 namespace flexcloud {
@@ -45,7 +46,7 @@ pcl::PCLPointCloud2 richCloud(std::uint32_t rows, std::uint32_t cols, bool doubl
   c.data.resize(static_cast<std::size_t>(c.row_step) * rows);
   std::mt19937 rng(1);
   for (auto& b : c.data) b = static_cast<std::uint8_t>(rng());
-  const XyzLayout l = XyzLayout::of(c, "rich");
+  const XyzLayout l = xyzLayout(c, "rich");
   std::uniform_real_distribution<double> u(-100.0, 100.0);
   for (std::size_t i = 0; i < l.points; ++i) {
     std::uint8_t* p = c.data.data() + i * l.point_step;
@@ -76,7 +77,7 @@ RubberSheet shiftSheet(const Eigen::Vector3d& shift) {
 /// Every field but x, y, z holds the same bytes in both clouds (padding between fields is not
 /// data and need not survive).
 bool sameExceptXyz(const pcl::PCLPointCloud2& a, const pcl::PCLPointCloud2& b) {
-  const XyzLayout la = XyzLayout::of(a, "a"), lb = XyzLayout::of(b, "b");
+  const XyzLayout la = xyzLayout(a, "a"), lb = xyzLayout(b, "b");
   if (la.points != lb.points) return false;
   for (const auto& fa : a.fields) {
     if (fa.name == "x" || fa.name == "y" || fa.name == "z") continue;
@@ -106,7 +107,7 @@ TEST(CloudWarp, EveryPointAndFieldSurvivesInOrder) {
     EXPECT_EQ(out.width, 50u);
     EXPECT_EQ(out.height, 40u);
     EXPECT_TRUE(sameExceptXyz(in, out));
-    const XyzLayout l = XyzLayout::of(in, "in");
+    const XyzLayout l = xyzLayout(in, "in");
     for (std::size_t i = 0; i < l.points; ++i) {
       const Eigen::Vector3d p = l.get(in.data.data() + i * l.point_step);
       const Eigen::Vector3d q = l.get(out.data.data() + i * l.point_step);
@@ -122,7 +123,7 @@ TEST(CloudWarp, EveryPointAndFieldSurvivesInOrder) {
 
 TEST(CloudWarp, PointsBeyondTheCuboidAreMovedRigidlyAndCounted) {
   pcl::PCLPointCloud2 c = richCloud(1, 10, true);
-  const XyzLayout l = XyzLayout::of(c, "c");
+  const XyzLayout l = xyzLayout(c, "c");
   l.set(c.data.data(), Eigen::Vector3d(5000.0, 0.0, 0.0));
   l.set(c.data.data() + l.point_step, Eigen::Vector3d(0.0, 0.0, 0.0005));  // near the origin
   const WarpStats s = warpCloud(c, shiftSheet({1.0, 2.0, 3.0}), 1);
@@ -139,13 +140,13 @@ TEST(CloudWarp, PointsBeyondTheCuboidAreMovedRigidlyAndCounted) {
 TEST(CloudWarp, BadLayoutsAreErrors) {
   pcl::PCLPointCloud2 c = richCloud(1, 10, false);
   c.fields[1].name = "u";  // no x
-  EXPECT_THROW(XyzLayout::of(c, "m"), Error);
+  EXPECT_THROW(xyzLayout(c, "m"), Error);
   c = richCloud(1, 10, false);
   c.fields[2].datatype = F::INT32;
-  EXPECT_THROW(XyzLayout::of(c, "m"), Error);
+  EXPECT_THROW(xyzLayout(c, "m"), Error);
   c = richCloud(1, 10, false);
   c.data.resize(c.data.size() - 1);
-  EXPECT_THROW(XyzLayout::of(c, "m"), Error);
+  EXPECT_THROW(xyzLayout(c, "m"), Error);
 }
 
 TEST(PcdIo, AllEncodingsRoundTripWithEveryField) {
@@ -164,7 +165,7 @@ TEST(PcdIo, AllEncodingsRoundTripWithEveryField) {
     EXPECT_TRUE(sameExceptXyz(c, r)) << name;
   }
   const pcl::PCLPointCloud2 a = readPcd(dir + "a.pcd");  // ascii: values, not bytes
-  const XyzLayout la = XyzLayout::of(a, "a"), lc = XyzLayout::of(c, "c");
+  const XyzLayout la = xyzLayout(a, "a"), lc = xyzLayout(c, "c");
   for (std::size_t i : {0u, 5u, 299u}) {
     EXPECT_LT(
         (la.get(a.data.data() + i * la.point_step) - lc.get(c.data.data() + i * lc.point_step))

@@ -7,6 +7,7 @@
 #include <fstream>
 
 #include "flexcloud/cloud_warp.h"
+#include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/io/pcd_io.h"
 #include "test_util.h"
 
@@ -91,7 +92,7 @@ TEST(PcdRobustness, AsciiKeepsNanPointsAndEveryFieldType) {
       header("x y z t n big", "4 4 8 1 2 8", "F F F I U I", "1 1 1 1 1 1", 3, 1, "ascii") +
       "1.5 -2 3e2 -128 65535 -9000000000\nnan nan nan 0 0 0\n0 0 0 127 1 9000000000\n";
   const pcl::PCLPointCloud2 c = readPcd(writeTempFile("types.pcd", bytes));
-  const XyzLayout l = XyzLayout::of(c, "types");
+  const XyzLayout l = xyzLayout(c, "types");
   EXPECT_EQ(l.get(c.data.data()), Eigen::Vector3d(1.5, -2.0, 300.0));
   EXPECT_TRUE(l.get(c.data.data() + c.point_step).hasNaN());
   std::int8_t t;
@@ -113,7 +114,7 @@ TEST(PcdRobustness, AsciiValuesReadAsTheCLibraryReadsThem) {
       header("x y z t n", "4 4 8 2 2", "F F F I U", "1 1 1 1 1", 2, 1, "ascii") +
       "+1.5 0x1p3 -inf +7 +8\r\n-0.25 1e2 1e-310 -32768 0\n";
   const pcl::PCLPointCloud2 c = readPcd(writeTempFile("c_numbers.pcd", bytes));
-  const XyzLayout l = XyzLayout::of(c, "numbers");
+  const XyzLayout l = xyzLayout(c, "numbers");
   const Eigen::Vector3d a = l.get(c.data.data()), b = l.get(c.data.data() + c.point_step);
   EXPECT_EQ(a.x(), 1.5);
   EXPECT_EQ(a.y(), 8.0);
@@ -155,7 +156,7 @@ TEST(PcdRobustness, OrganizedAsciiKeepsItsShape) {
   const pcl::PCLPointCloud2 c = readPcd(writeTempFile("organized.pcd", bytes));
   EXPECT_EQ(c.width, 2u);
   EXPECT_EQ(c.height, 3u);
-  const XyzLayout l = XyzLayout::of(c, "o");
+  const XyzLayout l = xyzLayout(c, "o");
   EXPECT_EQ(l.get(c.data.data() + 5 * c.point_step).x(), 5.0);
 }
 

@@ -14,6 +14,7 @@
 #include "body_copy.h"
 #include "flexcloud/cloud_warp.h"
 #include "flexcloud/georeference.h"
+#include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/io/map_precopy.h"
 #include "flexcloud/io/map_stream.h"
 #include "flexcloud/io/pcd_io.h"
@@ -47,7 +48,7 @@ pcl::PCLPointCloud2 doubleCloud(const std::vector<Eigen::Vector3d>& pts) {
   pcl::PCLPointCloud2 c =
       test::packedCloud({{"x", F::FLOAT64}, {"y", F::FLOAT64}, {"z", F::FLOAT64}},
                         static_cast<std::uint32_t>(pts.size()));
-  const XyzLayout l = XyzLayout::of(c, "probe");
+  const XyzLayout l = xyzLayout(c, "probe");
   for (std::size_t i = 0; i < pts.size(); ++i) l.set(c.data.data() + i * 24, pts[i]);
   return c;
 }
@@ -77,7 +78,7 @@ TEST(WarpEquivalence, FastPathMatchesCgalOnMapFacesEdgesVerticesAndOutside) {
     pcl::PCLPointCloud2 cloud = doubleCloud(probes);
     const WarpStats stats = warpCloud(cloud, sheet, 2);
     EXPECT_GT(stats.outside, 1000u) << "the probes should leave the cuboid";
-    const XyzLayout l = XyzLayout::of(cloud, "probe");
+    const XyzLayout l = xyzLayout(cloud, "probe");
     double worst = 0.0;
     std::size_t outside = 0;
     for (std::size_t i = 0; i < probes.size(); ++i) {
@@ -107,7 +108,7 @@ TEST(WarpEquivalence, RandomOrderMatchesCgalWithEveryPointInItsPlace) {
     pcl::PCLPointCloud2 cloud = doubleCloud(*probes);
     const WarpStats stats = warpCloud(cloud, sheet, 2);
     EXPECT_EQ(stats.points, probes->size());
-    const XyzLayout l = XyzLayout::of(cloud, "probe");
+    const XyzLayout l = xyzLayout(cloud, "probe");
     double worst = 0.0;
     for (std::size_t i = 0; i < probes->size(); ++i) {
       const Eigen::Vector3d want = sheet.transformReference((*probes)[i]);
@@ -137,7 +138,7 @@ TEST(WarpEquivalence, ShuffledFloatMapMatchesCgalToTheFloat) {
   const pcl::PCLPointCloud2 input = cloud;
   const WarpStats stats = warpCloud(cloud, sheet, 2);
   EXPECT_EQ(stats.points, n);
-  const XyzLayout l = XyzLayout::of(cloud, "map");
+  const XyzLayout l = xyzLayout(cloud, "map");
   std::size_t off = 0;
   for (std::size_t i = 0; i < n; ++i) {
     const Eigen::Vector3d want = sheet.transformReference(l.get(input.data.data() + i * step));
@@ -175,7 +176,7 @@ TEST(WarpEquivalence, StreamedFileEqualsTheInMemoryWarp) {
     EXPECT_EQ(info.warp.points, 300000u);
     const pcl::PCLPointCloud2 streamed = readPcd(out);
     ASSERT_EQ(streamed.data.size(), cloud.data.size());
-    const XyzLayout a = XyzLayout::of(cloud, "memory"), b = XyzLayout::of(streamed, "stream");
+    const XyzLayout a = xyzLayout(cloud, "memory"), b = xyzLayout(streamed, "stream");
     double worst = 0.0;
     for (std::size_t i = 0; i < a.points; ++i) {
       worst = std::max(worst, (a.get(cloud.data.data() + i * a.point_step) -
@@ -263,7 +264,7 @@ TEST(WarpEquivalence, StreamedAsciiFileEqualsTheInMemoryWarp) {
   EXPECT_EQ(info.warp.points, 300000u);
   const pcl::PCLPointCloud2 streamed = readPcd(dir + "/out.pcd");
   ASSERT_EQ(streamed.data.size(), cloud.data.size());
-  const XyzLayout a = XyzLayout::of(cloud, "memory"), b = XyzLayout::of(streamed, "stream");
+  const XyzLayout a = xyzLayout(cloud, "memory"), b = xyzLayout(streamed, "stream");
   double worst = 0.0;
   std::size_t other_bytes_differ = 0;
   for (std::size_t i = 0; i < a.points; ++i) {

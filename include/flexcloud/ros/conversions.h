@@ -13,6 +13,7 @@
 #include "flexcloud/cloud_warp.h"
 #include "flexcloud/geodesy.h"
 #include "flexcloud/gnss.h"
+#include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/types.h"
 
 namespace flexcloud::ros_conv {

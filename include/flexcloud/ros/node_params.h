@@ -45,6 +45,10 @@ NodeParams loadNodeParams(const ros::NodeHandle& pnh);
 /// parameter), sorted; the node warns about each, since it would otherwise go unnoticed.
 std::vector<std::string> unknownNodeParams(const ros::NodeHandle& pnh);
 
+/// doc/PARAMETERS.md: every row of the table (name, default, range or choices, unit, where it
+/// applies, live or not, meaning), as `flexcloud_parameters` prints it.
+std::string parametersMarkdown();
+
 /// The live rows of the table into a dynamic_reconfigure config, and back; fromConfig throws
 /// Error for a value that is not one of a parameter's choices.
 void toConfig(const NodeParams& p, GeoreferenceConfig& config);
