@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <sstream>
 
@@ -65,21 +66,35 @@ struct Alignment {
   double scale = 1.0;
 };
 
-Alignment alignTrajectory(const Trajectory& poses,
-                          const std::vector<std::optional<GnssPoint>>& gnss,
-                          const std::vector<bool>& usable, const Params& params) {
+/// The positions of the poses `keep` accepts (src) and of their GNSS (dst); Error when fewer
+/// than 3 remain.
+struct PositionPairs {
   std::vector<Eigen::Vector3d> src;
   std::vector<Eigen::Vector3d> dst;
+};
+
+PositionPairs alignmentPairs(const Trajectory& poses,
+                             const std::vector<std::optional<GnssPoint>>& gnss,
+                             const Params& params, const std::function<bool(std::size_t)>& keep) {
+  PositionPairs out;
   for (std::size_t i = 0; i < poses.size(); ++i) {
-    if (!usable[i]) continue;
-    src.push_back(poses[i].position);
-    dst.push_back(gnss[i]->position);
+    if (!keep(i)) continue;
+    out.src.push_back(poses[i].position);
+    out.dst.push_back(gnss[i]->position);
   }
-  if (src.size() < 3) {
-    throw Error("alignment: " + std::to_string(src.size()) +
+  if (out.src.size() < 3) {
+    throw Error("alignment: " + std::to_string(out.src.size()) +
                 " poses have GNSS within the std-dev threshold of " +
                 std::to_string(params.stddev_threshold) + " m, at least 3 are needed");
   }
+  return out;
+}
+
+Alignment alignTrajectory(const Trajectory& poses,
+                          const std::vector<std::optional<GnssPoint>>& gnss,
+                          const std::vector<bool>& usable, const Params& params) {
+  const auto [src, dst] =
+      alignmentPairs(poses, gnss, params, [&](std::size_t i) { return usable[i]; });
   const std::vector<double> w = arcWeights(src);
   return {umeyama(src, dst, w, false).rigid(), umeyama(src, dst, w, true).scale};
 }
@@ -88,18 +103,9 @@ Alignment alignTrajectory(const Trajectory& poses,
 /// within the threshold or not given), reweighted twice (Cauchy) so outliers pull less.
 Alignment robustAlignment(const Trajectory& poses,
                           const std::vector<std::optional<GnssPoint>>& gnss, const Params& params) {
-  std::vector<Eigen::Vector3d> src;
-  std::vector<Eigen::Vector3d> dst;
-  for (std::size_t i = 0; i < poses.size(); ++i) {
-    if (!gnss[i] || gnss[i]->stdDev3d() > params.stddev_threshold) continue;  // NaN passes
-    src.push_back(poses[i].position);
-    dst.push_back(gnss[i]->position);
-  }
-  if (src.size() < 3) {
-    throw Error("alignment: " + std::to_string(src.size()) +
-                " poses have GNSS within the std-dev threshold of " +
-                std::to_string(params.stddev_threshold) + " m, at least 3 are needed");
-  }
+  const auto [src, dst] = alignmentPairs(poses, gnss, params, [&](std::size_t i) {
+    return gnss[i] && !(gnss[i]->stdDev3d() > params.stddev_threshold);  // NaN passes
+  });
   std::vector<double> w;
   const Similarity fit = robustRigidFit(src, dst, arcWeights(src), &w);
   return {fit.rigid(), umeyama(src, dst, w, true).scale};

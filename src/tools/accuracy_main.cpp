@@ -51,47 +51,33 @@ struct Options {
   std::size_t holdout = 4;
 };
 
-std::vector<std::string> split(const std::string& text) {
-  std::vector<std::string> out;
-  std::stringstream ss(text);
-  for (std::string item; std::getline(ss, item, ',');) out.push_back(item);
-  return out;
-}
-
 Options parse(int argc, char** argv) {
-  cli::Args a(argc, argv);
   Options o;
-  while (!a.done()) {
-    const std::string f = a.flag();
-    if (f == "-h" || f == "--help") {
-      std::cout << kUsage;
-      std::exit(0);
-    } else if (f == "--seeds") {
+  cli::forEachFlag(argc, argv, kUsage, [&](const std::string& f, cli::Args& a) {
+    if (f == "--seeds") {
       o.seeds.clear();
-      for (const auto& s : split(a.text(f))) o.seeds.push_back(std::stoull(s));
+      for (const auto& s : cli::items(a.text(f))) o.seeds.push_back(std::stoull(s));
     } else if (f == "--map-points") {
       o.map_points = static_cast<std::size_t>(a.integer(f));
     } else if (f == "--scenarios") {
-      o.scenarios = split(a.text(f));
+      o.scenarios = cli::items(a.text(f));
     } else if (f == "--control-points") {
       o.control_points = static_cast<int>(a.integer(f));
     } else if (f == "--set") {
-      const std::string kv = a.text(f);
-      const auto eq = kv.find('=');
-      if (eq == std::string::npos) throw cli::UsageError("--set: '" + kv + "' is not KEY=VALUE");
-      o.sets.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
+      o.sets.push_back(cli::keyValue(f, a.text(f)));
     } else if (f == "--only-flexcloud") {
       o.published = false;
     } else if (f == "--real") {
-      o.real = split(a.text(f));
+      o.real = cli::items(a.text(f));
     } else if (f == "--holdout") {
       const long n = a.integer(f);
       if (n < 2) throw cli::UsageError("--holdout: " + std::to_string(n) + " is below 2");
       o.holdout = static_cast<std::size_t>(n);
     } else {
-      throw cli::UsageError("unknown option '" + f + "'");
+      return false;
     }
-  }
+    return true;
+  });
   return o;
 }
 

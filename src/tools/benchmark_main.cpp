@@ -69,20 +69,14 @@ struct Options {
 
 std::vector<double> numbers(const std::string& text) {
   std::vector<double> out;
-  std::stringstream ss(text);
-  for (std::string item; std::getline(ss, item, ',');) out.push_back(std::stod(item));
+  for (const auto& item : cli::items(text)) out.push_back(std::stod(item));
   return out;
 }
 
 Options parse(int argc, char** argv) {
-  cli::Args a(argc, argv);
   Options o;
-  while (!a.done()) {
-    const std::string f = a.flag();
-    if (f == "-h" || f == "--help") {
-      std::cout << kUsage;
-      std::exit(0);
-    } else if (f == "--points") {
+  cli::forEachFlag(argc, argv, kUsage, [&](const std::string& f, cli::Args& a) {
+    if (f == "--points") {
       o.points.clear();
       for (double v : numbers(a.text(f))) o.points.push_back(static_cast<std::size_t>(v));
     } else if (f == "--control-points") {
@@ -101,9 +95,10 @@ Options parse(int argc, char** argv) {
     } else if (f == "--real") {
       o.real = a.text(f);
     } else {
-      throw cli::UsageError("unknown option '" + f + "'");
+      return false;
     }
-  }
+    return true;
+  });
   return o;
 }
 

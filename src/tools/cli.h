@@ -3,7 +3,9 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <iostream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "flexcloud/types.h"
@@ -47,5 +49,51 @@ class Args {
   std::vector<std::string> args_;
   std::size_t pos_ = 0;
 };
+
+/// The items of a comma-separated list, e.g. "1,2,3".
+inline std::vector<std::string> items(const std::string& text) {
+  std::vector<std::string> out;
+  std::string item;
+  for (char c : text) {
+    if (c == ',') {
+      out.push_back(item);
+      item.clear();
+    } else {
+      item += c;
+    }
+  }
+  if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+/// True for -h and --help, after printing `usage`.
+inline bool printedHelp(const std::string& flag, const char* usage) {
+  if (flag != "-h" && flag != "--help") return false;
+  std::cout << usage;
+  return true;
+}
+
+/// Reads every flag of the command line: -h / --help prints `usage` and exits 0; any other goes
+/// to `take(flag, args)`, which reads the flag's values from `args` and returns false for a
+/// flag it does not know (a UsageError naming it).
+template <class Take>
+void forEachFlag(int argc, char** argv, const char* usage, Take take) {
+  Args a(argc, argv);
+  while (!a.done()) {
+    const std::string f = a.flag();
+    if (printedHelp(f, usage)) std::exit(0);
+    if (!take(f, a)) throw UsageError("unknown option '" + f + "'");
+  }
+}
+
+/// KEY and VALUE of the value "KEY=VALUE" of `flag` (e.g. --set).
+inline std::pair<std::string, std::string> keyValue(const std::string& flag,
+                                                    const std::string& text) {
+  const auto eq = text.find('=');
+  if (eq == std::string::npos || eq == 0) {
+    throw UsageError(flag + ": '" + text + "' is not KEY=VALUE");
+  }
+  return {text.substr(0, eq), text.substr(eq + 1)};
+}
 
 }  // namespace flexcloud::cli

@@ -112,15 +112,10 @@ Datum datumBeside(const std::string& truth) {
 }
 
 Options parseOptions(int argc, char** argv) {
-  cli::Args a(argc, argv);
   Options o;
-  if (a.done()) throw UsageError("no input given (--bag, or --gnss with --poses)");
-  while (!a.done()) {
-    const std::string f = a.flag();
-    if (f == "-h" || f == "--help") {
-      std::cout << kUsage;
-      std::exit(0);
-    } else if (f == "--bag") {
+  if (argc < 2) throw UsageError("no input given (--bag, or --gnss with --poses)");
+  cli::forEachFlag(argc, argv, kUsage, [&](const std::string& f, cli::Args& a) {
+    if (f == "--bag") {
       o.bag = a.text(f);
     } else if (f == "--fix-topic") {
       o.fix_topic = a.text(f);
@@ -151,11 +146,7 @@ Options parseOptions(int argc, char** argv) {
     } else if (f == "--config") {
       o.config = a.text(f);
     } else if (f == "--set") {
-      const std::string kv = a.text(f);
-      const auto eq = kv.find('=');
-      if (eq == std::string::npos || eq == 0)
-        throw UsageError("--set: '" + kv + "' is not KEY=VALUE");
-      o.sets.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
+      o.sets.push_back(cli::keyValue(f, a.text(f)));
     } else if (f == "--truth") {
       o.truth = a.text(f);
     } else if (f == "--truth-datum") {
@@ -164,9 +155,10 @@ Options parseOptions(int argc, char** argv) {
     } else if (f == "-q" || f == "--quiet") {
       o.quiet = true;
     } else {
-      throw UsageError("unknown option '" + f + "'");
+      return false;
     }
-  }
+    return true;
+  });
   const bool text = !o.gnss.empty() || !o.poses.empty();
   if (!o.bag.empty() && text) throw UsageError("give --bag or --gnss/--poses, not both");
   if (o.bag.empty() && (o.gnss.empty() || o.poses.empty())) {

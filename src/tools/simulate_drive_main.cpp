@@ -64,16 +64,11 @@ struct Options {
 };
 
 Options parse(int argc, char** argv) {
-  cli::Args a(argc, argv);
   Options o;
   auto& s = o.sim;
-  while (!a.done()) {
-    const std::string f = a.flag();
+  cli::forEachFlag(argc, argv, kUsage, [&](const std::string& f, cli::Args& a) {
     if (f == "--scenario") {
       s = sim::scenario(a.text(f), s.seed, s.map_points);
-    } else if (f == "-h" || f == "--help") {
-      std::cout << kUsage;
-      std::exit(0);
     } else if (f == "--out") {
       o.out = a.text(f);
     } else if (f == "--seed") {
@@ -128,9 +123,10 @@ Options parse(int argc, char** argv) {
     } else if (f == "--map-topic") {
       o.map_topic = true;
     } else {
-      throw UsageError("unknown option '" + f + "'");
+      return false;
     }
-  }
+    return true;
+  });
   return o;
 }
 
