@@ -11,18 +11,21 @@
 namespace flexcloud {
 namespace {
 
+/// The figures recorded on a fresh clone (200 control points, the largest of seeds 1-3, m); the
+/// tests allow half as much again, so a regression of 1.5x fails.
 struct Target {
   const char* scenario;
-  double map_rmse;  ///< m, all points
-  double far_rmse;  ///< m, points 15-30 m from the route
+  double map_rmse;         ///< all points
+  double far_rmse;         ///< points 15-30 m from the route
+  double trajectory_rmse;  ///< the rubber-sheeted trajectory
 };
 
-// The targets of the issue (200 control points).
-constexpr Target kTargets[] = {{"loop_rtk", 0.10, 0.15},
-                               {"open_rtk", 0.25, 0.25},
-                               {"loop_urban", 0.25, 0.25},
-                               {"open_urban", 0.50, 0.50},
-                               {"open_urban_end", 1.0, 1.0}};
+constexpr double kSlack = 1.5;
+constexpr Target kTargets[] = {{"loop_rtk", 0.034, 0.041, 0.009},
+                               {"open_rtk", 0.035, 0.046, 0.009},
+                               {"loop_urban", 0.066, 0.071, 0.060},
+                               {"open_urban", 0.077, 0.082, 0.071},
+                               {"open_urban_end", 0.812, 0.778, 0.797}};
 
 struct Outcome {
   sim::MapTruthErrors map;
@@ -60,12 +63,16 @@ TEST_P(Accuracy, MapAndTrajectoryAgainstTheTruthOnThreeSeeds) {
         t.scenario, static_cast<unsigned long>(seed), f.map.all.rmse, f.map.near.rmse,
         f.map.mid.rmse, f.map.far.rmse, f.trajectory.rmse, p.map.all.rmse, p.trajectory.rmse,
         f.result.fusion->outliers);
-    EXPECT_LE(f.map.all.rmse, t.map_rmse) << t.scenario << " seed " << seed;
-    EXPECT_LE(f.map.far.rmse, t.far_rmse) << t.scenario << " seed " << seed;
+    std::printf("  recorded %.3f / %.3f / %.3f m, bounds %.3f / %.3f / %.3f m\n", t.map_rmse,
+                t.far_rmse, t.trajectory_rmse, kSlack * t.map_rmse, kSlack * t.far_rmse,
+                kSlack * t.trajectory_rmse);
+    EXPECT_LE(f.map.all.rmse, kSlack * t.map_rmse) << t.scenario << " seed " << seed;
+    EXPECT_LE(f.map.far.rmse, kSlack * t.far_rmse) << t.scenario << " seed " << seed;
     EXPECT_LT(f.map.all.rmse, p.map.all.rmse) << t.scenario << " seed " << seed;
-    EXPECT_LE(f.trajectory.rmse, t.map_rmse) << t.scenario << " seed " << seed;
-    // The simulated SLAM drifts as the default noise says: the inliers' check leaves it.
-    EXPECT_EQ(f.result.fusion->slam_noise_scale, 1.0) << t.scenario << " seed " << seed;
+    EXPECT_LE(f.trajectory.rmse, kSlack * t.trajectory_rmse) << t.scenario << " seed " << seed;
+    // The simulated SLAM drifts as the default noise says: the check does not raise it (a raise
+    // is at least 1.5x).
+    EXPECT_LT(f.result.fusion->slam_noise_scale, 1.05) << t.scenario << " seed " << seed;
   }
 }
 
@@ -78,7 +85,7 @@ TEST(AccuracyMore, UrbanGnssWithoutCovarianceIsEstimated) {
   const Outcome f = run(d, Params{});
   std::printf("loop_urban_nocov seed 2: map RMSE %.3f m, estimated std-dev %.3f m (h) %.3f (v)\n",
               f.map.all.rmse, f.result.fusion->estimated_std_h, f.result.fusion->estimated_std_v);
-  EXPECT_LE(f.map.all.rmse, 0.25);
+  EXPECT_LE(f.map.all.rmse, kSlack * 0.050);          // recorded 0.050 m
   EXPECT_GT(f.result.fusion->estimated_std_h, 0.01);  // the noise of the inliers, not the floor
   EXPECT_LT(f.result.fusion->estimated_std_h, 0.1);
 }
@@ -103,8 +110,8 @@ TEST(AccuracyMore, LeverArmAppliedAndClockOffsetEstimated) {
     EXPECT_NEAR(f.result.fusion->time_offset, -0.5, 0.01) << seed;
     EXPECT_TRUE(f.result.fusion->time_offset_estimated) << seed;  // the stop shows it
     EXPECT_NEAR(f.result.fusion->time_offset_from_speed, -0.5, 0.05) << seed;
-    EXPECT_LE(f.map.all.rmse, 0.1) << seed;
-    EXPECT_LE(f.trajectory.rmse, 0.05) << seed;
+    EXPECT_LE(f.map.all.rmse, kSlack * 0.037) << seed;     // recorded 0.037 m (seed 1)
+    EXPECT_LE(f.trajectory.rmse, kSlack * 0.011) << seed;  // recorded 0.011 m (seed 1)
     if (seed != 1) continue;
     const Outcome without = run(d, Params{});
     std::printf("  %.3f m without the lever arm\n", without.map.all.rmse);
@@ -127,8 +134,8 @@ TEST(AccuracyMore, AWanderingSlamHeadingDoesNotPassForAClockOffset) {
         p.trajectory.rmse, f.result.fusion->time_offset_estimated ? "estimated" : "not shown");
     EXPECT_FALSE(f.result.fusion->time_offset_estimated);
     EXPECT_EQ(f.result.fusion->time_offset, 0.0);
-    EXPECT_LE(f.trajectory.rmse, 0.05) << "seed " << seed;
-    EXPECT_LE(f.map.all.rmse, 0.35) << "seed " << seed;
+    EXPECT_LE(f.trajectory.rmse, kSlack * 0.017) << "seed " << seed;  // recorded 0.017 m
+    EXPECT_LE(f.map.all.rmse, kSlack * 0.190) << "seed " << seed;     // recorded 0.190 m
     EXPECT_LT(f.map.all.rmse, p.map.all.rmse) << "seed " << seed;
   }
 }

@@ -40,7 +40,11 @@ MapErrors run(const sim::SimParams& sp, int control_points) {
   return e;
 }
 
-TEST(SimulatedDrive, LoopClosedLoopMapWithin25cmOfTheTruth) {
+// Bounds: half as much again as the largest of seeds 1-3 recorded on a fresh clone (map RMSE
+// 0.034 m on the loop and 0.036 m on the open route, trajectory 0.009 m on both).
+constexpr double kSlack = 1.5;
+
+TEST(SimulatedDrive, LoopClosedLoopMapAgainstTheTruth) {
   for (std::uint64_t seed : {1, 2, 3}) {
     sim::SimParams sp;
     sp.seed = seed;
@@ -48,9 +52,9 @@ TEST(SimulatedDrive, LoopClosedLoopMapWithin25cmOfTheTruth) {
     const MapErrors e = run(sp, 200);
     RecordProperty("loop_seed" + std::to_string(seed) + "_map_rmse", std::to_string(e.sheet.rmse));
     EXPECT_EQ(e.result.control_points.points.size(), 200u);
-    EXPECT_LE(e.sheet.rmse, 0.25) << "seed " << seed;
+    EXPECT_LE(e.sheet.rmse, kSlack * 0.034) << "seed " << seed;
     EXPECT_LT(e.sheet.rmse, e.rigid.rmse) << "seed " << seed;
-    EXPECT_LT(e.trajectory.rmse, 0.06) << "seed " << seed;
+    EXPECT_LT(e.trajectory.rmse, kSlack * 0.009) << "seed " << seed;
     EXPECT_GT(e.rigid.rmse, 1.0) << "the simulated drift should matter, seed " << seed;
     std::printf(
         "loop seed %lu: map RMSE rigid %.3f -> rubber sheet %.3f m (max %.3f), trajectory %.3f m\n",
@@ -59,16 +63,16 @@ TEST(SimulatedDrive, LoopClosedLoopMapWithin25cmOfTheTruth) {
   }
 }
 
-TEST(SimulatedDrive, OpenRouteMapWithin1_5mOfTheTruth) {
+TEST(SimulatedDrive, OpenRouteMapAgainstTheTruth) {
   for (std::uint64_t seed : {1, 2, 3}) {
     sim::SimParams sp;
     sp.seed = seed;
     sp.loop = false;
     sp.map_points = 100000;
     const MapErrors e = run(sp, 200);
-    EXPECT_LE(e.sheet.rmse, 1.5) << "seed " << seed;
+    EXPECT_LE(e.sheet.rmse, kSlack * 0.036) << "seed " << seed;
     EXPECT_LT(e.sheet.rmse, e.rigid.rmse) << "seed " << seed;
-    EXPECT_LT(e.trajectory.rmse, 0.1) << "seed " << seed;
+    EXPECT_LT(e.trajectory.rmse, kSlack * 0.009) << "seed " << seed;
     std::printf(
         "open seed %lu: map RMSE rigid %.3f -> rubber sheet %.3f m (max %.3f), trajectory %.3f m\n",
         static_cast<unsigned long>(seed), e.rigid.rmse, e.sheet.rmse, e.sheet.max,

@@ -107,8 +107,8 @@ TEST_F(Tools, BagWithMapGivesEveryOutputAndAccurateMap) {
   EXPECT_EQ(judged, j["counts"]["fixes_used"].get<std::size_t>());
   EXPECT_NEAR(fu["time_offset_s"].get<double>(), 0.0, 0.02);
   EXPECT_EQ(fu["lever_arm_m"].size(), 3u);
-  EXPECT_TRUE(fu["estimated_std_h_m"].is_null());  // every simulated fix has its covariance
-  EXPECT_EQ(fu["slam_noise_scale"].get<double>(), 1.0);
+  EXPECT_TRUE(fu["estimated_std_h_m"].is_null());         // every simulated fix has its covariance
+  EXPECT_LT(fu["slam_noise_scale"].get<double>(), 1.05);  // not raised (a raise is >= 1.5x)
   EXPECT_NEAR(fu["gnss_roughness_h_m"].get<double>(), 0.015, 0.01);  // simulated noise 0.015 m
   EXPECT_GT(j["beside_points"]["used"].get<int>(), 200);
   std::ifstream fixes(o + "/gnss_fixes.txt");

@@ -259,8 +259,9 @@ TEST_F(Live, ResultTopicDescribesThePublishedResult) {
   EXPECT_EQ(msg->fixes_rejected, r.fixes_rejected);
   EXPECT_NEAR(msg->time_offset, 0.0, 0.02);       // the drive's clocks agree
   EXPECT_TRUE(std::isnan(msg->estimated_std_h));  // every fix has its covariance
-  EXPECT_EQ(msg->slam_noise_scale, 1.0);          // the simulated SLAM drifts as its noise says
-  EXPECT_LT(msg->slam_jitter_v, 0.01);            // and does not jitter from pose to pose
+  EXPECT_LT(msg->slam_noise_scale,
+            1.05);                      // not raised: the simulated SLAM drifts as its noise says
+  EXPECT_LT(msg->slam_jitter_v, 0.01);  // and does not jitter from pose to pose
   EXPECT_EQ(msg->slam_jitter_v, r.slam_jitter_v);
   EXPECT_LT(msg->poses_moved_to_fixes, msg->poses / 10);
   ros::NodeHandle nh;
