@@ -53,17 +53,18 @@ options:
   --map FILE.pcd          SLAM map to warp (ascii, binary or binary_compressed; all fields kept)
   --out DIR               output folder (default: flexcloud_out)
   --datum LAT LON ALT     ENU datum (default: the first valid fix)
-  --control-points N      number of control points (default 200)
-  --stddev-threshold M    largest GNSS std-dev (m) of a control point (default 0.1)
+  --control-points N      number of control points (default {control_points})
+  --stddev-threshold M    largest GNSS std-dev of a control point (default {stddev_threshold})
   --config FILE.yaml      parameters, same keys as the ROS node's (config/georeference.yaml;
                           the node's own keys are accepted and not used)
-  --set KEY=VALUE         any parameter (repeatable), e.g. --set max_gap=2
+  --set KEY=VALUE         any parameter (repeatable), e.g. --set max_gap=2; every parameter
+                          with its default and range: doc/PARAMETERS.md
   --threads N             warp threads (default: all cores)
   --autoware              also write DIR/autoware/: the map in square tiles with
                           pointcloud_map_metadata.yaml and map_projector_info.yaml
-    --tile-size M         side of the tiles (default 20 m)
-    --projector P         frame of the tiles: local_cartesian (default: ENU at the datum),
-                          local_cartesian_utm or mgrs (reprojected point by point)
+    --tile-size M         side of the tiles, whole metres (default {tile_size})
+    --projector P         frame of the tiles (default {projector}): local_cartesian (ENU at
+                          the datum), local_cartesian_utm or mgrs (reprojected point by point)
   --las                   also write DIR/map_georeferenced.las (LAS 1.4, UTM zone of the datum)
   --to-ll FILE            also convert the points in FILE ("x y z" per line, map frame) through
                           the result to WGS84: DIR/points_ll.txt "x y z lat lon alt"
@@ -84,6 +85,20 @@ struct Options {
   StampUnit unit = StampUnit::kAuto;
   std::vector<std::pair<std::string, std::string>> sets;  // applied after the config file
 };
+
+/// The usage text with each "{name}" replaced by that parameter's default (and unit) from the
+/// parameter table, so the help never spells a default by hand.
+std::string withDefaults(std::string text) {
+  for (std::size_t at = text.find('{'); at != std::string::npos; at = text.find('{', at)) {
+    const std::size_t end = text.find('}', at);
+    const ParamSpec& spec = paramTable().row(text.substr(at + 1, end - at - 1)).spec;
+    const std::string value =
+        formatValue(spec, spec.def) + (spec.unit.empty() ? "" : " " + spec.unit);
+    text.replace(at, end - at + 1, value);
+    at += value.size();
+  }
+  return text;
+}
 
 /// Options that set one parameter: with a value, and switches that set it to true.
 const std::map<std::string, std::string> kValueShortcuts = {
@@ -114,7 +129,8 @@ Datum datumBeside(const std::string& truth) {
 Options parseOptions(int argc, char** argv) {
   Options o;
   if (argc < 2) throw UsageError("no input given (--bag, or --gnss with --poses)");
-  cli::forEachFlag(argc, argv, kUsage, [&](const std::string& f, cli::Args& a) {
+  static const std::string usage = withDefaults(kUsage);
+  cli::forEachFlag(argc, argv, usage.c_str(), [&](const std::string& f, cli::Args& a) {
     if (f == "--bag") {
       o.bag = a.text(f);
     } else if (f == "--fix-topic") {
