@@ -228,4 +228,18 @@ SimDrive simulateDrive(const SimParams& p) {
   return d;
 }
 
+DriveInput driveInput(const SimDrive& d) {
+  DriveInput in;
+  in.fixes = d.fixes;
+  in.poses = d.slam;
+  return in;
+}
+
+Params atSimDatum(const SimDrive& d, Params p) {
+  p.datum_lat = d.datum.lat;
+  p.datum_lon = d.datum.lon;
+  p.datum_alt = d.datum.alt;
+  return p;
+}
+
 }  // namespace flexcloud::sim

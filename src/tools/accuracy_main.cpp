@@ -103,13 +103,8 @@ void row(const std::string& name, std::uint64_t seed, const std::string& method,
 void runOne(const Options& o, const std::string& name, std::uint64_t seed) {
   const sim::SimParams sp = sim::scenario(name, seed, o.map_points);
   const sim::SimDrive d = sim::simulateDrive(sp);
-  DriveInput in;
-  in.fixes = d.fixes;
-  in.poses = d.slam;
-  auto atDatum = [&](Params p) {
-    p.datum_lat = d.datum.lat, p.datum_lon = d.datum.lon, p.datum_alt = d.datum.alt;
-    return p;
-  };
+  const DriveInput in = sim::driveInput(d);
+  auto atDatum = [&](Params p) { return sim::atSimDatum(d, std::move(p)); };
   if (o.published) {
     const GeoreferenceResult r = georeference(in, atDatum(published(o.control_points)));
     row(name, seed, "published", sim::mapTruthErrors(d.map, *r.sheet),

@@ -303,9 +303,7 @@ void onePointCount(const Options& o, std::size_t n) {
   const std::string pcd = dir + "/map.pcd";
   const IoTimes io = benchmarkPcdIo(o, original, dir, pcd);
   const auto inputs = writeToolInputs(d, dir);
-  DriveInput in;
-  in.fixes = d.fixes;
-  in.poses = d.slam;
+  const DriveInput in = sim::driveInput(d);
   for (int cps : o.control_points) {
     Params p;
     p.control_points = cps;
@@ -481,13 +479,10 @@ void oneHourDrive(const Options& o) {
   sp.length = 12.0 * 3600.0;  // an hour at 12 m/s: 36000 poses at 10 Hz, 18000 fixes at 5 Hz
   sp.map_points = 0;
   const sim::SimDrive d = sim::simulateDrive(sp);
-  DriveInput in;
-  in.fixes = d.fixes;
-  in.poses = d.slam;
-  Params p;
+  const DriveInput in = sim::driveInput(d);
+  Params p = sim::atSimDatum(d);
   p.control_points = 2000;
   p.threads = o.threads;
-  p.datum_lat = d.datum.lat, p.datum_lon = d.datum.lon, p.datum_alt = d.datum.alt;
   GeoreferenceResult r;
   const double s = best(o.repeat, [&] { r = georeference(in, p); });
   const auto& t = r.seconds;

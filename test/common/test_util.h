@@ -73,20 +73,9 @@ std::string errorOf(F&& f) {
 }
 
 /// The simulated drive's fixes and SLAM poses as pipeline input.
-inline DriveInput inputOf(const sim::SimDrive& d) {
-  DriveInput in;
-  in.fixes = d.fixes;
-  in.poses = d.slam;
-  return in;
-}
+inline DriveInput inputOf(const sim::SimDrive& d) { return sim::driveInput(d); }
 
-/// Parameters whose datum is the simulator's, so results compare with its truth directly.
-inline Params atSimDatum(const sim::SimDrive& d, Params p = {}) {
-  p.datum_lat = d.datum.lat;
-  p.datum_lon = d.datum.lon;
-  p.datum_alt = d.datum.alt;
-  return p;
-}
+using sim::atSimDatum;  // parameters at the simulator's datum
 
 /// Warps the drive's map with the result and returns its error against the truth; checks that
 /// every point was kept and stayed finite.

@@ -88,9 +88,7 @@ TEST(SimulatedDrive, OutagesNoFixStopsAndClockOffsetAreHandled) {
   sp.stop_duration = 60.0;
   sp.clock_offset = 0.3;
   const sim::SimDrive d = sim::simulateDrive(sp);
-  DriveInput in;
-  in.fixes = d.fixes;
-  in.poses = d.slam;
+  const DriveInput in = test::inputOf(d);
   Params p;
   p.fusion = false;  // the published method's control points, from the GNSS at the poses
   p.gnss_time_offset = -0.3;

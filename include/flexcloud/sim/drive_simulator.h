@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "flexcloud/geodesy.h"
+#include "flexcloud/georeference.h"
 #include "flexcloud/gnss.h"
 #include "flexcloud/sim/gnss_errors.h"
 #include "flexcloud/sim/slam_errors.h"
@@ -99,6 +100,11 @@ struct SimDrive {
 
 /// Simulates a drive. Throws Error for invalid parameters.
 SimDrive simulateDrive(const SimParams& params);
+
+/// The drive as the pipeline takes it: every fix message and the SLAM's poses.
+DriveInput driveInput(const SimDrive& d);
+/// `p` with the simulator's datum, so results compare with its truth directly.
+Params atSimDatum(const SimDrive& d, Params p = {});
 
 /// Every problem with the values, joined by "; "; empty when usable.
 std::string validate(const SimParams& params);
