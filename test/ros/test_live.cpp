@@ -35,8 +35,8 @@ class Live : public ::testing::Test {
   }
   static void TearDownTestSuite() { delete drive_; }
 
-  /// Publishes the map and the first `share` of the fixes and poses.
-  void publishDrive(double share = 1.0) {
+  /// Publishes the map and the first `share` of the fixes (in `fix_frame`) and poses.
+  void publishDrive(double share = 1.0, const std::string& fix_frame = "gnss") {
     // The lever arm comes from TF: body frame of the odometry -> frame of the fixes.
     geometry_msgs::TransformStamped antenna;
     antenna.header.stamp = ros::Time::now();
@@ -68,7 +68,7 @@ class Live : public ::testing::Test {
     std::size_t k = 0;
     const auto part = [share](std::size_t n) { return static_cast<std::size_t>(share * n); };
     for (std::size_t i = 0; i < part(drive_->fixes.size()); ++i) {
-      fix.publish(ros_conv::toNavSatFix(drive_->fixes[i], "gnss"));
+      fix.publish(ros_conv::toNavSatFix(drive_->fixes[i], fix_frame));
       if (++k % 500 == 0) ros::WallDuration(0.05).sleep();  // stay within the queues
     }
     for (std::size_t i = 0; i < part(drive_->slam.size()); ++i) {
@@ -429,6 +429,21 @@ TEST_F(Live, AMostlyRigidResultCarriesAWarningWithTheShare) {
   ASSERT_TRUE(msg);
   EXPECT_EQ(msg->warnings, r.warnings);
   reset();
+}
+
+/// Without a transform from the body to the fixes' frame the lever arm parameters apply, and the
+/// result says so, naming the frames (the node logs it too).
+TEST_F(Live, WithoutTheLeverArmsTfTheParametersApplyAndTheResultSaysSo) {
+  reset();
+  publishDrive(1.0, "antenna_without_tf");
+  const auto r = callWhenComplete();
+  ASSERT_TRUE(r.success) << r.message;
+  EXPECT_EQ(
+      r.lever_arm_source.rfind(
+          "parameters (0.000, 0.000, 0.000) m: no TF from base_link to antenna_without_tf", 0),
+      0u)
+      << r.lever_arm_source;
+  EXPECT_NEAR(r.lever_arm.x, 0.0, 1e-9);
 }
 
 }  // namespace
