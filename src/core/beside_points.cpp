@@ -5,44 +5,13 @@
 #include <limits>
 #include <set>
 
-#include "cell_hash.h"
 #include "flexcloud/trajectory.h"
+#include "position_grid.h"
 
 namespace flexcloud {
 namespace {
 
 constexpr double kLeastBeside = 1.5;  // m: a point beside nearer its pass than this is no help
-
-/// Nearest-neighbour queries on the SLAM positions through a hash grid.
-class PositionGrid {
- public:
-  PositionGrid(const Trajectory& poses, double cell) : cell_(cell) {
-    for (std::size_t i = 0; i < poses.size(); ++i) {
-      cells_[cellOf(poses[i].position, cell_)].push_back(poses[i].position);
-    }
-  }
-  /// Whether a position lies within `radius` of p.
-  bool anyWithin(const Eigen::Vector3d& p, double radius) const {
-    const int reach = static_cast<int>(std::ceil(radius / cell_));
-    const Cell c = cellOf(p, cell_);
-    for (int dx = -reach; dx <= reach; ++dx) {
-      for (int dy = -reach; dy <= reach; ++dy) {
-        for (int dz = -reach; dz <= reach; ++dz) {
-          const auto it = cells_.find(c + Cell(dx, dy, dz));
-          if (it == cells_.end()) continue;
-          for (const auto& q : it->second) {
-            if ((q - p).norm() < radius) return true;
-          }
-        }
-      }
-    }
-    return false;
-  }
-
- private:
-  double cell_;
-  CellMap<std::vector<Eigen::Vector3d>> cells_;
-};
 
 Eigen::Isometry3d isometry(const Pose& p) {
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();

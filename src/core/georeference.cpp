@@ -8,10 +8,10 @@
 #include <limits>
 #include <sstream>
 
-#include "cell_hash.h"
 #include "flexcloud/interpolation.h"
 #include "flexcloud/metrics.h"
 #include "leave_out.h"
+#include "position_grid.h"
 #include "revisits.h"
 #include "sheet_builder.h"
 
@@ -279,23 +279,10 @@ std::string controlPointShortfall(const ControlPointSelection& cp, std::size_t p
 
 double shareFarFromPoses(const GeoreferenceResult& r, const WarpStats& map, double distance) {
   if (map.sample.empty() || r.poses.empty()) return 0.0;
-  CellMap<std::vector<Eigen::Vector3d>> cells;
-  for (const Pose& p : r.poses) cells[cellOf(p.position, distance)].push_back(p.position);
-  std::size_t far = 0;
-  for (const Eigen::Vector3d& q : map.sample) {
-    const Cell c = cellOf(q, distance);
-    bool near = false;
-    for (int dx = -1; dx <= 1 && !near; ++dx) {
-      for (int dy = -1; dy <= 1 && !near; ++dy) {
-        for (int dz = -1; dz <= 1 && !near; ++dz) {
-          const auto it = cells.find(c + Cell(dx, dy, dz));
-          if (it == cells.end()) continue;
-          for (const auto& p : it->second) near = near || (p - q).norm() <= distance;
-        }
-      }
-    }
-    far += near ? 0 : 1;
-  }
+  const PositionGrid grid(r.poses, distance);
+  const auto far =
+      std::count_if(map.sample.begin(), map.sample.end(),
+                    [&](const Eigen::Vector3d& q) { return !grid.anyWithin(q, distance); });
   return static_cast<double>(far) / static_cast<double>(map.sample.size());
 }
 

@@ -162,7 +162,9 @@ std::string Params::ruleProblems() const {
   const bool none = std::isnan(datum_lat) && std::isnan(datum_lon) && std::isnan(datum_alt);
   if (!none && !hasDatum()) out = "datum_lat, datum_lon, datum_alt: give all three or none";
   if (std::isfinite(tile_size) && tile_size != std::round(tile_size)) {
-    out += std::string(out.empty() ? "" : "; ") + "tile_size " + std::to_string(tile_size) +
+    const ParamSpec& spec = paramTable().row("tile_size").spec;
+    out += std::string(out.empty() ? "" : "; ") + "tile_size " +
+           formatValue(spec, ParamValue{tile_size, "", {}}) +
            " m: Autoware reads the tiles' corners as integers; give whole metres";
   }
   return out;

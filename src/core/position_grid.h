@@ -1,0 +1,44 @@
+#pragma once
+// Which positions of a trajectory lie near a point, through a hash grid (private to the core).
+
+#include <Eigen/Core>
+#include <cmath>
+#include <vector>
+
+#include "cell_hash.h"
+#include "flexcloud/types.h"
+
+namespace flexcloud {
+
+/// Nearest-neighbour queries on the SLAM positions through a hash grid.
+class PositionGrid {
+ public:
+  PositionGrid(const Trajectory& poses, double cell) : cell_(cell) {
+    for (std::size_t i = 0; i < poses.size(); ++i) {
+      cells_[cellOf(poses[i].position, cell_)].push_back(poses[i].position);
+    }
+  }
+  /// Whether a position lies within `radius` of p.
+  bool anyWithin(const Eigen::Vector3d& p, double radius) const {
+    const int reach = static_cast<int>(std::ceil(radius / cell_));
+    const Cell c = cellOf(p, cell_);
+    for (int dx = -reach; dx <= reach; ++dx) {
+      for (int dy = -reach; dy <= reach; ++dy) {
+        for (int dz = -reach; dz <= reach; ++dz) {
+          const auto it = cells_.find(c + Cell(dx, dy, dz));
+          if (it == cells_.end()) continue;
+          for (const auto& q : it->second) {
+            if ((q - p).norm() < radius) return true;
+          }
+        }
+      }
+    }
+    return false;
+  }
+
+ private:
+  double cell_;
+  CellMap<std::vector<Eigen::Vector3d>> cells_;
+};
+
+}  // namespace flexcloud
