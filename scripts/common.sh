@@ -116,6 +116,34 @@ build_sanitize_workspace() {
       fuzz_text fuzz_pipeline fuzz_pcd fuzz_bag >&2)
 }
 
+# The ThreadSanitizer workspace: clang-14 with -fsanitize=thread; builds the node and the
+# rostests' binary (test/ros/races.test runs the two against each other).
+FLEXCLOUD_TSAN_WS="${FLEXCLOUD_TSAN_WS:-${FLEXCLOUD_ROOT}/.ws-tsan}"
+build_tsan_workspace() {
+  clean_ros_env
+  link_package "${FLEXCLOUD_TSAN_WS}"
+  log "building the ThreadSanitizer workspace in ${FLEXCLOUD_TSAN_WS}"
+  (cd "${FLEXCLOUD_TSAN_WS}" && CC=clang-14 CXX=clang++-14 catkin_make -j"$(nproc)" \
+      -DCMAKE_BUILD_TYPE=RelWithDebInfo -DFLEXCLOUD_TSAN=ON -DCATKIN_ENABLE_TESTING=ON \
+      "${CCACHE_ARGS[@]}" -DPYTHON_EXECUTABLE=/usr/bin/python3 \
+      georeference_node flexcloud_ros_tests >&2)
+}
+
+# Runs test/ros/races.test with the node and the test built by build_tsan_workspace; writes its
+# JUnit files into $1, and turns the reports on flexcloud's own code into failed cases
+# (scripts/tsan_reports.py; the whole reports stay in $1/report.PID). record_exit: test.sh's.
+run_tsan_races() {
+  local results="$1"
+  mkdir -p "${results}"
+  log "running races.test under ThreadSanitizer (log: ${results}/races.log)"
+  (export ROS_TEST_RESULTS_DIR="${results}" ROS_LOG_DIR="${results}/ros_log" \
+     TSAN_OPTIONS="log_path=${results}/report history_size=4" && \
+   FLEXCLOUD_WS="${FLEXCLOUD_TSAN_WS}" in_workspace rostest flexcloud races.test) \
+    > "${results}/races.log" 2>&1
+  record_exit "$?" "tsan-races" "${results}/flexcloud" "${results}/races.log"
+  python3 "${FLEXCLOUD_ROOT}/scripts/tsan_reports.py" "${results}" || true
+}
+
 # Runs every fuzz target for $1 seconds on a copy of its seed corpus; writes a JUnit file per
 # target into $2. A crash, leak, timeout or sanitizer report fails the target and leaves the
 # input that caused it in $2.

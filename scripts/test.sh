@@ -2,10 +2,11 @@
 # Installs what is missing, builds and runs the tests; ends with the line "N passed, N failed"
 # and exits non-zero on any failure.
 #   scripts/test.sh              every test: the suite (unit, end-to-end, rostests), the unit and
-#                                end-to-end tests again under ASan + UBSan, and each fuzz target
-#                                for FUZZ_SECONDS (default 20)
+#                                end-to-end tests again under ASan + UBSan, the node's threads
+#                                under ThreadSanitizer (races.test), and each fuzz target for
+#                                FUZZ_SECONDS (default 20)
 #   scripts/test.sh --quick      the suite only
-#   scripts/test.sh --sanitize   the sanitizer run only
+#   scripts/test.sh --sanitize   the sanitizer runs only (ASan + UBSan, ThreadSanitizer)
 #   scripts/test.sh --fuzz [S]   the fuzz targets only, S seconds each (default 20)
 set -uo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
@@ -17,7 +18,7 @@ case "${1:-}" in
   --quick) sanitize=0 fuzz=0 ;;
   --sanitize) suite=0 fuzz=0 ;;
   --fuzz) suite=0 sanitize=0; fuzz_seconds="${2:-${fuzz_seconds}}" ;;
-  -h|--help) sed -n '2,9p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+  -h|--help) sed -n '2,10p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
   *) echo "usage: scripts/test.sh [--quick | --sanitize | --fuzz [SECONDS]]" >&2; exit 2 ;;
 esac
 
@@ -90,6 +91,11 @@ if [ "${sanitize}" = 1 ]; then
     record_exit "$?" "sanitize-${t}" "${results}/sanitize" "${results}/sanitize/${t}.log") &
   done
   wait
+fi
+
+if [ "${sanitize}" = 1 ]; then
+  build_tsan_workspace || fail "the ThreadSanitizer build failed"
+  run_tsan_races "${results}/tsan"
 fi
 
 if [ "${fuzz}" = 1 ]; then

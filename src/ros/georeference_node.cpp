@@ -46,12 +46,12 @@ GeoreferenceNode::GeoreferenceNode(ros::NodeHandle nh, ros::NodeHandle pnh)
 }
 
 NodeParams GeoreferenceNode::params() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  GuardedLock lock(mutex_);
   return params_;
 }
 
 void GeoreferenceNode::start() {
-  const NodeParams p = params_;  // no other thread runs yet
+  const NodeParams p = params();
   collector_.setLimit(static_cast<std::size_t>(p.max_messages));
   publisher_ = std::make_unique<ResultPublisher>(pnh_);
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_, nh_);
@@ -70,7 +70,7 @@ void GeoreferenceNode::start() {
 
 GeoreferenceNode::~GeoreferenceNode() {
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    GuardedLock lock(mutex_);
     stop_ = true;
     bag_stop_ = true;
     if (run_cancel_) run_cancel_->cancel();  // a run in progress stops at its next check
@@ -128,7 +128,7 @@ void GeoreferenceNode::advertiseServices() {
 
 std::shared_ptr<const NodeResult> GeoreferenceNode::latestResult() {
   if (!startup_error_.empty()) throw Error(startup_error_);
-  std::lock_guard<std::mutex> lock(mutex_);
+  GuardedLock lock(mutex_);
   if (!result_) {
     throw Error("no result: call georeference first (a reset withdraws the result)");
   }
@@ -183,13 +183,13 @@ void GeoreferenceNode::subscribe(const NodeParams& p) {
 }
 
 void GeoreferenceNode::onMap(const sensor_msgs::PointCloud2ConstPtr& msg) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  GuardedLock lock(mutex_);
   map_ = msg;  // a run in progress keeps the cloud it started with
 }
 
 void GeoreferenceNode::startBagRead() {
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    GuardedLock lock(mutex_);
     bag_done_ = false;
     bag_stop_ = false;
     bag_error_.clear();
@@ -208,7 +208,7 @@ void GeoreferenceNode::readBag() {
   std::string error;
   try {
     const BagSummary s = flexcloud::readBag(bag, topics, collector_, nullptr, [this](double) {
-      std::lock_guard<std::mutex> lock(mutex_);
+      GuardedLock lock(mutex_);
       if (bag_stop_) throw BagStopped{};
     });
     ROS_INFO("%s: read %zu fixes on %s and %zu poses on %s from %s", name_.c_str(), s.fixes,
@@ -220,7 +220,7 @@ void GeoreferenceNode::readBag() {
     ROS_ERROR("%s: %s", name_.c_str(), error.c_str());
     publisher_->report(failed(error));
   }
-  std::lock_guard<std::mutex> lock(mutex_);
+  GuardedLock lock(mutex_);
   bag_done_ = true;
   bag_error_ = error;
   if (error.empty() && params_.georeference_on_bag_end && !busy_ && !service_job_) {
@@ -238,26 +238,26 @@ std::string GeoreferenceNode::readMapFile(const std::string& file, std::uint64_t
   } catch (const Error& e) {
     const std::string error = "map_file " + std::string(e.what());
     ROS_ERROR("%s: %s", name_.c_str(), error.c_str());
-    std::lock_guard<std::mutex> lock(mutex_);
+    GuardedLock lock(mutex_);
     map_error_ = error;
     return error;
   }
   if (points != nullptr) *points = static_cast<std::uint64_t>(msg->width) * msg->height;
   ROS_INFO("%s: loaded %u points from %s", name_.c_str(), msg->width * msg->height, file.c_str());
-  std::lock_guard<std::mutex> lock(mutex_);
+  GuardedLock lock(mutex_);
   map_ = msg;
   map_error_.clear();
   return "";
 }
 
 bool GeoreferenceNode::waitForJob(Job& job) {
-  std::unique_lock<std::mutex> lock(mutex_);
+  GuardedLock lock(mutex_);
   while (!stop_ && !service_job_ &&
          !(recompute_pending_ && std::chrono::steady_clock::now() >= recompute_at_)) {
     if (recompute_pending_) {
-      wake_.wait_until(lock, recompute_at_);
+      lock.waitUntil(wake_, recompute_at_);
     } else {
-      wake_.wait(lock);
+      lock.wait(wake_);
     }
   }
   if (stop_) return false;
@@ -281,7 +281,7 @@ void GeoreferenceNode::workerLoop() {
     std::uint64_t generation;
     auto cancel = std::make_shared<CancelToken>();
     {
-      std::lock_guard<std::mutex> lock(mutex_);
+      GuardedLock lock(mutex_);
       generation = generation_;
       run_cancel_ = cancel;
     }
@@ -295,7 +295,7 @@ void GeoreferenceNode::workerLoop() {
     const flexcloud::Result outcome = finish(result, error, generation);
     if (job.reply) job.reply->set_value(outcome);
   }
-  std::lock_guard<std::mutex> lock(mutex_);
+  GuardedLock lock(mutex_);
   if (service_job_ && service_job_->reply) {
     service_job_->reply->set_value(failed("the node is shutting down"));
   }
@@ -304,7 +304,7 @@ void GeoreferenceNode::workerLoop() {
 
 flexcloud::Result GeoreferenceNode::finish(std::shared_ptr<const NodeResult> result,
                                            const std::string& error, std::uint64_t generation) {
-  std::unique_lock<std::mutex> lock(mutex_);
+  GuardedLock lock(mutex_);
   busy_ = false;
   run_cancel_.reset();
   if (generation != generation_) {
@@ -418,7 +418,7 @@ sensor_msgs::PointCloud2ConstPtr GeoreferenceNode::warpMap(const NodeParams& par
                                                            MapInfo& info) {
   bool reload = false;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    GuardedLock lock(mutex_);
     reload = !map_error_.empty() && !params.map_file.empty();
   }
   // A map file that could not be read before is tried again: it may be there now.
@@ -427,7 +427,7 @@ sensor_msgs::PointCloud2ConstPtr GeoreferenceNode::warpMap(const NodeParams& par
   }
   sensor_msgs::PointCloud2ConstPtr map;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    GuardedLock lock(mutex_);
     map = map_;
   }
   if (!map) return nullptr;
@@ -454,7 +454,7 @@ flexcloud::Georeference::Response GeoreferenceNode::georeference(int control_poi
   auto future = reply->get_future();
   NodeParams params;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    GuardedLock lock(mutex_);
     if (stop_) return refused("the node is shutting down");
     if (busy_ || service_job_) {
       return refused("a georeferencing run is going; call again when it has finished");
@@ -490,7 +490,7 @@ flexcloud::Save::Response GeoreferenceNode::save(const std::string& dir, bool au
   }
   std::shared_ptr<const NodeResult> s;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    GuardedLock lock(mutex_);
     s = result_;
   }
   if (!s) {
@@ -531,7 +531,7 @@ std_srvs::Trigger::Response GeoreferenceNode::reset() {
   }
   FrameNames frames;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    GuardedLock lock(mutex_);
     ++generation_;  // a run going now is dropped when it ends
     if (run_cancel_) run_cancel_->cancel();
     if (result_) frames = result_->frames;
@@ -568,7 +568,7 @@ flexcloud::LoadMap::Response GeoreferenceNode::loadMap(const std::string& file) 
   if (!res.success) return res;
   bool published = false;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    GuardedLock lock(mutex_);
     published = result_ != nullptr;
   }
   res.message =
@@ -589,7 +589,7 @@ void GeoreferenceNode::pushConfig(const NodeParams& p) {
 }
 
 void GeoreferenceNode::onReconfigure(GeoreferenceConfig& c, uint32_t /*level*/) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  GuardedLock lock(mutex_);
   NodeParams p;
   std::string bad;
   try {

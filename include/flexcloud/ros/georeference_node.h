@@ -24,6 +24,7 @@
 #include "flexcloud/Save.h"
 #include "flexcloud/cancel.h"
 #include "flexcloud/ros/drive_collector.h"
+#include "flexcloud/ros/guarded_mutex.h"
 #include "flexcloud/ros/node_params.h"
 #include "flexcloud/ros/result_publisher.h"
 
@@ -107,7 +108,6 @@ class GeoreferenceNode {
   std::unique_ptr<ros::AsyncSpinner> service_spinner_;
   std::string name_;
   std::string startup_error_;
-  NodeParams params_;  // guarded by mutex_: read through params() outside it
   DriveCollector collector_;
   std::vector<ros::Subscriber> subscribers_;
   std::vector<ros::ServiceServer> services_;
@@ -118,23 +118,27 @@ class GeoreferenceNode {
   boost::recursive_mutex config_mutex_;
   std::unique_ptr<dynamic_reconfigure::Server<GeoreferenceConfig>> reconfigure_;
 
-  // Guarded by mutex_.
-  mutable std::mutex mutex_;
+  // Guarded by mutex_ (clang checks it: guarded_mutex.h).
+  mutable GuardedMutex mutex_;
   std::condition_variable wake_;
-  bool busy_ = false;
-  bool stop_ = false;
-  std::optional<Job> service_job_;
-  bool recompute_pending_ = false;
-  std::vector<std::string> pending_notes_;  ///< clamp notes for the next run
-  std::chrono::steady_clock::time_point recompute_at_;
-  std::shared_ptr<const NodeResult> result_;  ///< the published result; null: none
-  std::uint64_t generation_ = 0;              ///< raised by every reset
-  std::shared_ptr<CancelToken> run_cancel_;   ///< of the run going, if any
-  sensor_msgs::PointCloud2ConstPtr map_;      ///< as received / loaded, map frame
-  std::string map_error_;                     ///< why the map file could not be loaded
-  bool bag_done_ = true;
-  bool bag_stop_ = false;
-  std::string bag_error_;
+  NodeParams params_ FLEXCLOUD_GUARDED_BY(mutex_);  ///< read through params() outside mutex_
+  bool busy_ FLEXCLOUD_GUARDED_BY(mutex_) = false;
+  bool stop_ FLEXCLOUD_GUARDED_BY(mutex_) = false;
+  std::optional<Job> service_job_ FLEXCLOUD_GUARDED_BY(mutex_);
+  bool recompute_pending_ FLEXCLOUD_GUARDED_BY(mutex_) = false;
+  /// Clamp notes for the next run.
+  std::vector<std::string> pending_notes_ FLEXCLOUD_GUARDED_BY(mutex_);
+  std::chrono::steady_clock::time_point recompute_at_ FLEXCLOUD_GUARDED_BY(mutex_);
+  /// The published result; null: none.
+  std::shared_ptr<const NodeResult> result_ FLEXCLOUD_GUARDED_BY(mutex_);
+  std::uint64_t generation_ FLEXCLOUD_GUARDED_BY(mutex_) = 0;  ///< raised by every reset
+  /// Of the run going, if any.
+  std::shared_ptr<CancelToken> run_cancel_ FLEXCLOUD_GUARDED_BY(mutex_);
+  sensor_msgs::PointCloud2ConstPtr map_ FLEXCLOUD_GUARDED_BY(mutex_);  ///< map frame
+  std::string map_error_ FLEXCLOUD_GUARDED_BY(mutex_);  ///< why the map file could not be read
+  bool bag_done_ FLEXCLOUD_GUARDED_BY(mutex_) = true;
+  bool bag_stop_ FLEXCLOUD_GUARDED_BY(mutex_) = false;
+  std::string bag_error_ FLEXCLOUD_GUARDED_BY(mutex_);
 
   std::thread worker_;
   std::thread bag_thread_;
