@@ -15,7 +15,7 @@ void DriveCollector::pushBounded(std::vector<T>& v, T item) {
 }
 
 void DriveCollector::setLimit(std::size_t max_messages) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  GuardedLock lock(mutex_);
   max_ = max_messages;
 }
 
@@ -25,14 +25,14 @@ void DriveCollector::setFrame(const std::string& frame) {
 
 void DriveCollector::handleFix(const sensor_msgs::NavSatFix& msg) {
   RawFix f = ros_conv::fromNavSatFix(msg);
-  std::lock_guard<std::mutex> lock(mutex_);
+  GuardedLock lock(mutex_);
   if (!msg.header.frame_id.empty()) fix_frame_ = msg.header.frame_id;
   pushBounded(data_.fixes, f);
 }
 
 void DriveCollector::handleOdometry(const nav_msgs::Odometry& msg) {
   Pose p = ros_conv::fromOdometry(msg);
-  std::lock_guard<std::mutex> lock(mutex_);
+  GuardedLock lock(mutex_);
   if (!msg.child_frame_id.empty()) body_frame_ = msg.child_frame_id;
   setFrame(msg.header.frame_id);
   pushBounded(data_.poses, p);
@@ -40,55 +40,55 @@ void DriveCollector::handleOdometry(const nav_msgs::Odometry& msg) {
 
 void DriveCollector::handlePose(const geometry_msgs::PoseStamped& msg) {
   Pose p = ros_conv::fromPoseStamped(msg);
-  std::lock_guard<std::mutex> lock(mutex_);
+  GuardedLock lock(mutex_);
   setFrame(msg.header.frame_id);
   pushBounded(data_.poses, p);
 }
 
 void DriveCollector::handlePath(const nav_msgs::Path& msg) {
   Trajectory t = ros_conv::fromPath(msg);
-  std::lock_guard<std::mutex> lock(mutex_);
+  GuardedLock lock(mutex_);
   setFrame(msg.header.frame_id);
   data_.poses = std::move(t);
 }
 
 DriveInput DriveCollector::snapshot() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  GuardedLock lock(mutex_);
   return data_;
 }
 
 std::string DriveCollector::fixFrame() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  GuardedLock lock(mutex_);
   return fix_frame_;
 }
 
 std::string DriveCollector::bodyFrame() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  GuardedLock lock(mutex_);
   return body_frame_;
 }
 
 std::string DriveCollector::mapFrame() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  GuardedLock lock(mutex_);
   return frame_;
 }
 
 std::size_t DriveCollector::fixCount() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  GuardedLock lock(mutex_);
   return data_.fixes.size();
 }
 
 std::size_t DriveCollector::poseCount() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  GuardedLock lock(mutex_);
   return data_.poses.size();
 }
 
 std::size_t DriveCollector::evicted() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  GuardedLock lock(mutex_);
   return evicted_;
 }
 
 void DriveCollector::clear() {
-  std::lock_guard<std::mutex> lock(mutex_);
+  GuardedLock lock(mutex_);
   data_ = DriveInput{};
   frame_.clear();
   fix_frame_.clear();

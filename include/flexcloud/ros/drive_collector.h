@@ -7,10 +7,10 @@
 #include <nav_msgs/Path.h>
 #include <sensor_msgs/NavSatFix.h>
 
-#include <mutex>
 #include <string>
 
 #include "flexcloud/georeference.h"
+#include "flexcloud/ros/guarded_mutex.h"
 
 namespace flexcloud {
 
@@ -43,17 +43,17 @@ class DriveCollector {
   void clear();
 
  private:
-  void setFrame(const std::string& frame);
+  void setFrame(const std::string& frame) FLEXCLOUD_REQUIRES(mutex_);
   template <typename T>
-  void pushBounded(std::vector<T>& v, T item);
+  void pushBounded(std::vector<T>& v, T item) FLEXCLOUD_REQUIRES(mutex_);
 
-  mutable std::mutex mutex_;
-  DriveInput data_;
-  std::string frame_;
-  std::string fix_frame_;
-  std::string body_frame_;
-  std::size_t max_;
-  std::size_t evicted_ = 0;
+  mutable GuardedMutex mutex_;
+  DriveInput data_ FLEXCLOUD_GUARDED_BY(mutex_);
+  std::string frame_ FLEXCLOUD_GUARDED_BY(mutex_);
+  std::string fix_frame_ FLEXCLOUD_GUARDED_BY(mutex_);
+  std::string body_frame_ FLEXCLOUD_GUARDED_BY(mutex_);
+  std::size_t max_ FLEXCLOUD_GUARDED_BY(mutex_);
+  std::size_t evicted_ FLEXCLOUD_GUARDED_BY(mutex_) = 0;
 };
 
 }  // namespace flexcloud
