@@ -3,7 +3,9 @@
 #include <dynamic_reconfigure/config_tools.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <map>
 
 namespace flexcloud {
 namespace {
@@ -179,6 +181,72 @@ std::string parametersMarkdown() {
     out += "| `" + s.name + "` | " + cell(formatValue(s, s.def)) + " | " + cell(rangeOf(s)) +
            " | " + cell(s.unit) + " | " + (core ? "all" : "node") + " | " +
            (s.live ? "yes" : "no") + " | " + cell(s.doc) + " |\n";
+  }
+  return out;
+}
+
+namespace {
+
+/// The headings of config/georeference.yaml, each before the row it names.
+const std::map<std::string, std::string>& yamlHeadings() {
+  static const std::map<std::string, std::string> headings = {
+      {"datum_lat", "The ENU datum; not set: the first valid fix."},
+      {"default_std_dev", "GNSS input."},
+      {"fusion", "Fusion of SLAM and GNSS before the control points are chosen."},
+      {"leave_out_folds", "The choice between the fusion and the GNSS control points."},
+      {"interpolation", "Keyframe interpolation: the GNSS at the pose stamps."},
+      {"control_points", "Control points."},
+      {"beside_distance", "Control points beside and above the trajectory."},
+      {"margin_x", "The rubber sheet's enclosing cuboid."},
+      {"max_uncovered_share", "Reporting and execution."},
+      {"autoware", "Outputs beside the map."},
+      {"enu_frame", "The ROS node only (the offline tool accepts and ignores them)."}};
+  return headings;
+}
+
+/// The default as YAML spells it: quoted when empty, a list for time ranges.
+std::string yamlValue(const ParamSpec& s) {
+  if (s.type == ParamType::kRanges) {
+    std::string out;
+    for (const auto& r : s.def.ranges) {
+      out += (out.empty() ? "" : ", ") + std::string("[") +
+             formatValue(ParamSpec{}, ParamValue{r.begin, "", {}}) + ", " +
+             formatValue(ParamSpec{}, ParamValue{r.end, "", {}}) + "]";
+    }
+    return "[" + out + "]";
+  }
+  const std::string text = formatValue(s, s.def);
+  return text.empty() ? "\"\"" : text;
+}
+
+/// "# MEANING (a | b | c) [UNIT]" for the line of a row.
+std::string yamlComment(const ParamSpec& s) {
+  std::string out = "# " + s.doc;
+  for (std::size_t i = 0; i < s.choices.size(); ++i) {
+    out += (i == 0 ? " (" : " | ") + s.choices[i] + (i + 1 == s.choices.size() ? ")" : "");
+  }
+  return out + (s.unit.empty() ? "" : " [" + s.unit + "]");
+}
+
+}  // namespace
+
+std::string parametersYaml() {
+  std::string out =
+      "# flexcloud parameters, generated from the parameter table (src/core/params.cpp,\n"
+      "# src/ros/node_params.cpp) by `scripts/env.sh rosrun flexcloud flexcloud_parameters --yaml\n"
+      "# > config/georeference.yaml`; a test checks that they agree. The offline tool reads it "
+      "with\n"
+      "# --config, the ROS node loads it as rosparams (launch/georeference.launch). Every value "
+      "is\n"
+      "# the default; ranges: doc/PARAMETERS.md.\n";
+  for (const auto& row : nodeParamTable().rows()) {
+    const ParamSpec& s = row.spec;
+    const auto heading = yamlHeadings().find(s.name);
+    if (heading != yamlHeadings().end()) out += "\n# " + heading->second + "\n";
+    const bool unset = s.nan_unset && std::isnan(s.def.number);
+    std::string line = (unset ? "# " : "") + s.name + ": " + (unset ? "" : yamlValue(s));
+    line.resize(std::max<std::size_t>(line.size() + 1, 30), ' ');
+    out += line + yamlComment(s) + "\n";
   }
   return out;
 }

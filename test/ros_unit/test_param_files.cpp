@@ -109,6 +109,16 @@ TEST(ParamFiles, TheYamlListsEveryRowAtItsDefault) {
   }
 }
 
+TEST(ParamFiles, TheYamlIsTheTable) {
+  const std::string path = std::string(FLEXCLOUD_SOURCE_DIR) + "/config/georeference.yaml";
+  std::ifstream in(path);
+  ASSERT_TRUE(in) << path;
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(text, parametersYaml())
+      << path << " differs from the table: scripts/env.sh rosrun flexcloud flexcloud_parameters "
+      << "--yaml > config/georeference.yaml";
+}
+
 TEST(ParamFiles, DocParametersIsTheTable) {
   const std::string path = std::string(FLEXCLOUD_SOURCE_DIR) + "/doc/PARAMETERS.md";
   std::ifstream in(path);

@@ -48,6 +48,8 @@ std::vector<std::string> unknownNodeParams(const ros::NodeHandle& pnh);
 /// doc/PARAMETERS.md: every row of the table (name, default, range or choices, unit, where it
 /// applies, live or not, meaning), as `flexcloud_parameters` prints it.
 std::string parametersMarkdown();
+/// config/georeference.yaml: every row at its default, with its unit and meaning.
+std::string parametersYaml();
 
 /// The live rows of the table into a dynamic_reconfigure config, and back; fromConfig throws
 /// Error for a value that is not one of a parameter's choices.
