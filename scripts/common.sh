@@ -9,6 +9,15 @@ export FLEXCLOUD_ROOT FLEXCLOUD_WS
 
 log() { printf '[flexcloud] %s\n' "$*" >&2; }
 
+# usage_or_help USAGE ARG: without ARG, prints USAGE on stderr and exits 2; with -h or --help,
+# prints it on stdout and exits 0; otherwise returns.
+usage_or_help() {
+  case "$2" in
+    "") echo "$1" >&2; exit 2 ;;
+    -h|--help) echo "$1"; exit 0 ;;
+  esac
+}
+
 # Compiles go through ccache. Paths under the repository are hashed relative to the build folder,
 # so a clone elsewhere, or a catkin workspace of the same shape, reuses what was compiled before.
 export CCACHE_BASEDIR="${CCACHE_BASEDIR:-${FLEXCLOUD_ROOT}}" CCACHE_NOHASHDIR=1

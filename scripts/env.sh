@@ -5,11 +5,7 @@
 # Installs and builds first if the workspace has not been built yet.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
-usage="usage: scripts/env.sh COMMAND [ARGS...]   (runs COMMAND in flexcloud's built ROS workspace)"
-case "${1:-}" in
-  "") echo "${usage}" >&2; exit 2 ;;
-  -h|--help) echo "${usage}"; exit 0 ;;
-esac
+usage_or_help "usage: scripts/env.sh COMMAND [ARGS...]   (runs COMMAND in flexcloud's built ROS workspace)" "${1:-}"
 if [ ! -f "${FLEXCLOUD_WS}/devel/setup.bash" ]; then
   install_deps
   build_workspace

@@ -6,11 +6,7 @@
 #   scripts/screenshot.sh OUTPUT.png
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
-usage="usage: scripts/screenshot.sh OUTPUT.png   (rviz showing the demo's drive, taken under Xvfb)"
-case "${1:-}" in
-  "") echo "${usage}" >&2; exit 2 ;;
-  -h|--help) echo "${usage}"; exit 0 ;;
-esac
+usage_or_help "usage: scripts/screenshot.sh OUTPUT.png   (rviz showing the demo's drive, taken under Xvfb)" "${1:-}"
 out="$(realpath -m "$1")"
 mkdir -p "$(dirname "${out}")"
 install_deps

@@ -105,55 +105,56 @@ std::string readWholeFile(const std::string& path) {
   return s.str();
 }
 
+namespace {
+
+/// One T per row of `t`, made by make(stamp in seconds, row).
+template <typename T, typename Make>
+std::vector<T> fromRows(const Table& t, Make make) {
+  std::vector<T> out;
+  out.reserve(t.rows.size());
+  for (std::size_t i = 0; i < t.rows.size(); ++i) out.push_back(make(t.stamps[i], t.rows[i]));
+  return out;
+}
+
+/// Columns 4-6 of a seven-column row: the std-devs; NaN (unknown) in a four-column row.
+Eigen::Vector3d stdColumns(const std::vector<double>& r) {
+  return r.size() == 7 ? Eigen::Vector3d(r[4], r[5], r[6])
+                       : Eigen::Vector3d::Constant(std::nan(""));
+}
+
+}  // namespace
+
 Trajectory parseTum(const std::string& text, const std::string& name, StampUnit unit) {
   const Table t = parseTable(text, name, {8}, "stamp x y z qx qy qz qw", unit);
-  Trajectory out;
-  out.reserve(t.rows.size());
-  for (std::size_t i = 0; i < t.rows.size(); ++i) {
-    const auto& r = t.rows[i];
+  return fromRows<Pose>(t, [](double stamp, const std::vector<double>& r) {
     Pose p;
-    p.stamp = t.stamps[i];
+    p.stamp = stamp;
     p.position = Eigen::Vector3d(r[1], r[2], r[3]);
     p.orientation.coeffs() << r[4], r[5], r[6], r[7];  // x y z w
-    out.push_back(p);
-  }
-  return out;
+    return p;
+  });
 }
 
 std::vector<RawFix> parseGeodeticGnss(const std::string& text, const std::string& name,
                                       StampUnit unit) {
   const Table t = parseTable(text, name, {4, 7}, "stamp lat lon alt [std_e std_n std_u]", unit);
-  std::vector<RawFix> out;
-  out.reserve(t.rows.size());
-  for (std::size_t i = 0; i < t.rows.size(); ++i) {
-    const auto& r = t.rows[i];
+  return fromRows<RawFix>(t, [](double stamp, const std::vector<double>& r) {
     RawFix f;
-    f.fix.stamp = t.stamps[i];
-    f.fix.lat = r[1];
-    f.fix.lon = r[2];
-    f.fix.alt = r[3];
-    f.fix.std_enu =
-        r.size() == 7 ? Eigen::Vector3d(r[4], r[5], r[6]) : Eigen::Vector3d::Constant(std::nan(""));
-    out.push_back(f);
-  }
-  return out;
+    f.fix = GeoFix{stamp, r[1], r[2], r[3], stdColumns(r)};
+    return f;
+  });
 }
 
 std::vector<GnssPoint> parseLocalGnss(const std::string& text, const std::string& name,
                                       StampUnit unit) {
   const Table t = parseTable(text, name, {4, 7}, "stamp x y z [sx sy sz]", unit);
-  std::vector<GnssPoint> out;
-  out.reserve(t.rows.size());
-  for (std::size_t i = 0; i < t.rows.size(); ++i) {
-    const auto& r = t.rows[i];
+  return fromRows<GnssPoint>(t, [](double stamp, const std::vector<double>& r) {
     GnssPoint g;
-    g.stamp = t.stamps[i];
+    g.stamp = stamp;
     g.position = Eigen::Vector3d(r[1], r[2], r[3]);
-    g.std_dev =
-        r.size() == 7 ? Eigen::Vector3d(r[4], r[5], r[6]) : Eigen::Vector3d::Constant(std::nan(""));
-    out.push_back(g);
-  }
-  return out;
+    g.std_dev = stdColumns(r);
+    return g;
+  });
 }
 
 Trajectory readTumFile(const std::string& path, StampUnit unit) {
