@@ -3,11 +3,11 @@
 #include <cstdint>
 #include <string>
 
-#include "flexcloud/cloud_warp.h"
 #include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/io/map_stream.h"
 #include "flexcloud/io/pcd_io.h"
 #include "flexcloud/io/pcd_stream.h"
+#include "flexcloud/warp/cloud_warp.h"
 #include "fuzz_util.h"
 
 namespace {

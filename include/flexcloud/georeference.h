@@ -9,15 +9,15 @@
 #include <string>
 #include <vector>
 
-#include "flexcloud/alignment.h"
-#include "flexcloud/beside_points.h"
-#include "flexcloud/cloud_warp.h"
-#include "flexcloud/control_points.h"
-#include "flexcloud/fusion.h"
-#include "flexcloud/gnss.h"
+#include "flexcloud/fusion/fusion.h"
+#include "flexcloud/input/gnss.h"
+#include "flexcloud/input/trajectory.h"
 #include "flexcloud/params.h"
-#include "flexcloud/rubber_sheet.h"
-#include "flexcloud/trajectory.h"
+#include "flexcloud/sheet/alignment.h"
+#include "flexcloud/sheet/beside_points.h"
+#include "flexcloud/sheet/control_points.h"
+#include "flexcloud/sheet/rubber_sheet.h"
+#include "flexcloud/warp/cloud_warp.h"
 
 namespace flexcloud {
 

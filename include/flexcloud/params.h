@@ -7,12 +7,14 @@
 #include <string>
 #include <vector>
 
+#include "flexcloud/fusion/fusion.h"
+#include "flexcloud/input/gnss.h"
+#include "flexcloud/input/interpolation.h"
 #include "flexcloud/param_table.h"
+#include "flexcloud/sheet/control_points.h"
 #include "flexcloud/types.h"
 
 namespace flexcloud {
-
-enum class InterpolationMode { kSpline, kNearest };
 
 std::string toString(InterpolationMode mode);
 /// Parses "spline" / "nearest"; throws Error naming the value otherwise.
@@ -86,5 +88,11 @@ struct Params {
 
 /// The parameter table of Params.
 const ParamTable<Params>& paramTable();
+
+/// Each stage's numbers, from the one parameter struct.
+GnssOptions gnssOptions(const Params& p);
+FusionOptions fusionOptions(const Params& p);
+InterpolationOptions interpolationOptions(const Params& p);
+ControlPointOptions controlPointOptions(const Params& p);
 
 }  // namespace flexcloud

@@ -54,6 +54,9 @@ struct ErrorStats {
   std::size_t count = 0;
 };
 
+/// How the GNSS is sampled at a pose stamp: the cubic through four fixes, or the nearest fix.
+enum class InterpolationMode { kSpline, kNearest };
+
 /// A closed time interval [begin, end] in seconds.
 struct TimeRange {
   double begin = 0.0;

@@ -8,12 +8,12 @@
 #include <limits>
 #include <sstream>
 
-#include "flexcloud/interpolation.h"
+#include "flexcloud/input/interpolation.h"
 #include "flexcloud/metrics.h"
-#include "leave_out.h"
+#include "fusion/leave_out.h"
 #include "position_grid.h"
-#include "revisits.h"
-#include "sheet_builder.h"
+#include "sheet/revisits.h"
+#include "sheet/sheet_builder.h"
 
 namespace flexcloud {
 namespace {
@@ -53,9 +53,10 @@ std::vector<double> arcWeights(const std::vector<Eigen::Vector3d>& pts) {
 std::vector<bool> usablePoses(const Trajectory& poses,
                               const std::vector<std::optional<GnssPoint>>& gnss,
                               const Params& params) {
+  const ControlPointOptions options = controlPointOptions(params);
   std::vector<bool> usable(poses.size());
   for (std::size_t i = 0; i < poses.size(); ++i) {
-    usable[i] = isUsableGnss(gnss[i], poses[i].stamp, params);
+    usable[i] = isUsableGnss(gnss[i], poses[i].stamp, options);
   }
   return usable;
 }
@@ -186,8 +187,8 @@ ErrorStats deviationFromGnss(const Trajectory& t, const std::vector<std::optiona
 
 /// The GNSS and the poses, checked and prepared; throws when nothing usable is left.
 void prepareInput(const DriveInput& input, const Params& params, GeoreferenceResult& r) {
-  r.gnss = input.local_gnss.empty() ? prepareGeodeticGnss(input.fixes, params)
-                                    : prepareLocalGnss(input.local_gnss, params);
+  r.gnss = input.local_gnss.empty() ? prepareGeodeticGnss(input.fixes, gnssOptions(params))
+                                    : prepareLocalGnss(input.local_gnss, gnssOptions(params));
   r.datum = r.gnss.datum;
   r.poses = preparePoses(input.poses, r.pose_counts);
   if (r.poses.empty()) {
@@ -201,7 +202,7 @@ void matchGnssAt(double offset, const Params& params, GeoreferenceResult& r) {
   std::vector<double> stamps;
   stamps.reserve(r.poses.size());
   for (const auto& p : r.poses) stamps.push_back(p.stamp - offset);
-  r.gnss_at_pose = interpolateGnss(r.gnss.points, stamps, params);
+  r.gnss_at_pose = interpolateGnss(r.gnss.points, stamps, interpolationOptions(params));
   r.poses_matched = 0;
   for (std::size_t i = 0; i < r.poses.size(); ++i) {
     if (!r.gnss_at_pose[i]) continue;
@@ -372,9 +373,9 @@ void sheetFromGnss(const Params& params, GeoreferenceResult& r) {
   r.T_enu_map = a.T_enu_map;
   r.scale = a.scale;
   r.aligned = transformed(r.poses, r.T_enu_map);
-  r.cuboid_enu = makeCuboid(r.aligned, r.gnss_at_pose, params);
-  r.control_points =
-      chooseControlPoints(r.poses, r.gnss_at_pose, usable, r.T_enu_map, r.cuboid_enu, params);
+  r.cuboid_enu = makeCuboid(r.aligned, r.gnss_at_pose, sheetOptions(params));
+  r.control_points = chooseControlPoints(r.poses, r.gnss_at_pose, usable, r.T_enu_map, r.cuboid_enu,
+                                         sheetOptions(params));
   r.sheet = buildSheet(r.control_points, {}, r.T_enu_map, r.cuboid_enu);
 }
 
@@ -383,7 +384,8 @@ void sheetFromFusion(const Params& params, const CancelToken& cancel, const Leav
                      GeoreferenceResult& r, StageSeconds& seconds, Stopwatch& watch) {
   const Alignment start = robustAlignment(r.poses, r.gnss_at_pose, params);
   seconds.alignment = watch.lap();
-  r.fusion = fuseTrajectory(r.poses, r.gnss.points, start.T_enu_map, params, cancel, folds);
+  r.fusion =
+      fuseTrajectory(r.poses, r.gnss.points, start.T_enu_map, fusionOptions(params), cancel, folds);
   r.method = Method::kFusion;
   r.clock_offset = params.gnss_time_offset + r.fusion->time_offset;
   r.clock_offset_sigma = r.fusion->time_offset_estimated ? r.fusion->time_offset_sigma
@@ -397,13 +399,10 @@ void sheetFromFusion(const Params& params, const CancelToken& cancel, const Leav
   r.aligned = transformed(r.poses, r.T_enu_map);
   seconds.fusion = watch.lap();
   const std::vector<std::optional<GnssPoint>> targets = fusedTargets(*r.fusion);
-  std::vector<bool> usable(r.poses.size());
-  for (std::size_t i = 0; i < r.poses.size(); ++i) {
-    usable[i] = isUsableGnss(targets[i], r.poses[i].stamp, params);
-  }
-  r.cuboid_enu = makeCuboid(r.aligned, targets, params);
-  r.control_points =
-      chooseControlPoints(r.poses, targets, usable, r.T_enu_map, r.cuboid_enu, params);
+  const std::vector<bool> usable = usablePoses(r.poses, targets, params);
+  r.cuboid_enu = makeCuboid(r.aligned, targets, sheetOptions(params));
+  r.control_points = chooseControlPoints(r.poses, targets, usable, r.T_enu_map, r.cuboid_enu,
+                                         sheetOptions(params));
   // Where the poses took most of their position from the fixes, the SLAM's orientation there
   // is no better than its position: no points beside those control points.
   constexpr double kSteadyGain = 0.5;
@@ -414,12 +413,10 @@ void sheetFromFusion(const Params& params, const CancelToken& cancel, const Leav
   // The sheet follows the fused trajectory to its last poses, a little beyond the fixes too.
   constexpr double kFaithfulMargin = 2.0;  // s
   const std::vector<std::optional<GnssPoint>> faithful = fusedTargets(*r.fusion, kFaithfulMargin);
-  std::vector<bool> reach(r.poses.size());
-  for (std::size_t i = 0; i < reach.size(); ++i) {
-    reach[i] = isUsableGnss(faithful[i], r.poses[i].stamp, params);
-  }
-  const SheetWithBeside s = buildFaithfulSheet(r.control_points, r.poses, r.fusion->poses, faithful,
-                                               reach, r.T_enu_map, r.cuboid_enu, params, steady);
+  const std::vector<bool> reach = usablePoses(r.poses, faithful, params);
+  const SheetWithBeside s =
+      buildFaithfulSheet(r.control_points, r.poses, r.fusion->poses, faithful, reach, r.T_enu_map,
+                         r.cuboid_enu, sheetOptions(params), steady);
   r.sheet = s.sheet;
   r.beside = s.beside;
   r.beside_folding = s.folding;

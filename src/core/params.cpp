@@ -2,7 +2,8 @@
 
 #include <cmath>
 
-#include "flexcloud/projection.h"
+#include "flexcloud/geo/projection.h"
+#include "sheet/sheet_builder.h"
 
 namespace flexcloud {
 
@@ -174,6 +175,57 @@ std::string Params::validate() const {
   const std::string ranges = paramTable().validate(*this);
   const std::string rules = ruleProblems();
   return ranges.empty() ? rules : rules.empty() ? ranges : ranges + "; " + rules;
+}
+
+GnssOptions gnssOptions(const Params& p) {
+  GnssOptions o;
+  if (p.hasDatum()) o.datum = Datum{p.datum_lat, p.datum_lon, p.datum_alt};
+  o.default_std_dev = p.default_std_dev;
+  // The fusion estimates missing std-devs and judges every fix against the SLAM and the other
+  // fixes; a jump filter on the GNSS alone keeps the wrong side after an isolated outlier, so it
+  // only runs without the fusion.
+  o.estimate_unknown_std = p.fusion;
+  o.drop_jumps = !p.fusion;
+  o.time_offset = p.gnss_time_offset;
+  o.max_speed = p.max_gnss_speed;
+  return o;
+}
+
+FusionOptions fusionOptions(const Params& p) {
+  FusionOptions o;
+  o.keyframe_spacing = p.fusion_spacing;
+  o.slam_rotation_noise = p.slam_rotation_noise;
+  o.slam_translation_noise = p.slam_translation_noise;
+  o.slam_drift_noise = p.slam_drift_noise;
+  o.slam_scale_noise = p.slam_scale_noise;
+  o.gnss_std_floor = p.gnss_std_floor;
+  o.outlier_threshold = p.outlier_threshold;
+  o.max_time_offset = p.max_time_offset;
+  o.max_slam_noise_scale = p.max_slam_noise_scale;
+  o.lever_arm = Eigen::Vector3d(p.lever_arm_x, p.lever_arm_y, p.lever_arm_z);
+  o.stddev_threshold = p.stddev_threshold;
+  o.excluded_ranges = p.excluded_ranges;
+  o.threads = p.threads;
+  return o;
+}
+
+InterpolationOptions interpolationOptions(const Params& p) {
+  return InterpolationOptions{p.interpolation, p.min_spacing, p.max_gap};
+}
+
+ControlPointOptions controlPointOptions(const Params& p) {
+  return ControlPointOptions{p.control_points, p.stddev_threshold, p.excluded_ranges};
+}
+
+SheetOptions sheetOptions(const Params& p) {
+  SheetOptions o;
+  o.control_points = controlPointOptions(p);
+  o.refine_fraction = p.refine_fraction;
+  o.beside_distance = p.beside_distance;
+  o.above_height = p.above_height;
+  o.margin = Eigen::Vector3d(p.margin_x, p.margin_y, p.margin_z);
+  o.margin_min = p.margin_min;
+  return o;
 }
 
 }  // namespace flexcloud

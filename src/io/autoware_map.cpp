@@ -17,10 +17,10 @@
 #include <vector>
 
 #include "../core/parallel.h"
-#include "flexcloud/cloud_warp.h"
 #include "flexcloud/io/atomic_file.h"
 #include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/io/pcd_stream.h"
+#include "flexcloud/warp/cloud_warp.h"
 
 namespace flexcloud {
 namespace {

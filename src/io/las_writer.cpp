@@ -15,8 +15,8 @@
 #include <vector>
 
 #include "../core/parallel.h"
+#include "flexcloud/geo/projection.h"
 #include "flexcloud/io/pcd_stream.h"
-#include "flexcloud/projection.h"
 
 namespace flexcloud {
 namespace {

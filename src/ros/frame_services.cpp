@@ -1,6 +1,6 @@
 #include "flexcloud/ros/frame_services.h"
 
-#include "flexcloud/frame_convert.h"
+#include "flexcloud/geo/frame_convert.h"
 
 namespace flexcloud {
 namespace {

@@ -22,7 +22,6 @@
 #include <thread>
 
 #include "cli.h"
-#include "flexcloud/cloud_warp.h"
 #include "flexcloud/georeference.h"
 #include "flexcloud/io/atomic_file.h"
 #include "flexcloud/io/cloud_layout.h"
@@ -30,6 +29,7 @@
 #include "flexcloud/io/text_io.h"
 #include "flexcloud/sim/sim_cloud.h"
 #include "flexcloud/sim/truth_metrics.h"
+#include "flexcloud/warp/cloud_warp.h"
 
 namespace {
 
@@ -429,6 +429,15 @@ void printCityState(const Options& o, const CityState& st, double gb) {
       st.tool.best, st.tool.worst, st.tool.report.peak_mb, st.tool.report.stages.c_str());
 }
 
+/// The pipeline without a map on `in`: the best time of o.repeat runs and the last run's result.
+std::pair<GeoreferenceResult, double> timedPipeline(const Options& o, const DriveInput& in,
+                                                    Params p) {
+  p.threads = o.threads;
+  GeoreferenceResult r;
+  const double s = best(o.repeat, [&] { r = georeference(in, p); });
+  return {std::move(r), s};
+}
+
 /// A city-size map (a 20 km drive) in random order: the whole tool against a copy of the file.
 void cityMap(const Options& o) {
   const std::string dir = o.work + "/city";
@@ -482,9 +491,7 @@ void oneHourDrive(const Options& o) {
   const DriveInput in = sim::driveInput(d);
   Params p = sim::atSimDatum(d);
   p.control_points = 2000;
-  p.threads = o.threads;
-  GeoreferenceResult r;
-  const double s = best(o.repeat, [&] { r = georeference(in, p); });
+  const auto [r, s] = timedPipeline(o, in, p);
   const auto& t = r.seconds;
   std::printf(
       "| - | pipeline without map, one-hour drive (%zu poses, %zu fixes) | 2000 (%zu "
@@ -501,10 +508,7 @@ void realDrive(const Options& o) {
   DriveInput in;
   in.poses = readTumFile(o.real + "/slam_poses_tum.txt");
   in.local_gnss = readLocalGnssFile(o.real + "/gnss_local_at_poses.txt");
-  Params p;
-  p.threads = o.threads;
-  GeoreferenceResult r;
-  const double s = best(o.repeat, [&] { r = georeference(in, p); });
+  const auto [r, s] = timedPipeline(o, in, Params{});
   const auto& t = r.seconds;
   std::printf(
       "| - | pipeline without map, real drive %s (%zu poses, %zu fixes), defaults | 200 | %.3f s | "

@@ -15,8 +15,7 @@
 #include <optional>
 
 #include "cli.h"
-#include "flexcloud/cloud_warp.h"
-#include "flexcloud/frame_convert.h"
+#include "flexcloud/geo/frame_convert.h"
 #include "flexcloud/io/atomic_file.h"
 #include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/io/config.h"
@@ -30,6 +29,7 @@
 #include "flexcloud/io/text_io.h"
 #include "flexcloud/ros/bag_input.h"
 #include "flexcloud/ros/node_params.h"
+#include "flexcloud/warp/cloud_warp.h"
 
 namespace {
 

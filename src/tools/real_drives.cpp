@@ -4,8 +4,8 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "flexcloud/input/trajectory.h"
 #include "flexcloud/io/text_io.h"
-#include "flexcloud/trajectory.h"
 
 namespace flexcloud::study {
 

@@ -14,10 +14,10 @@
 #include <utility>
 #include <vector>
 
-#include "flexcloud/cloud_warp.h"
 #include "flexcloud/georeference.h"
 #include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/sim/sim_cloud.h"
+#include "flexcloud/warp/cloud_warp.h"
 
 namespace flexcloud::test {
 

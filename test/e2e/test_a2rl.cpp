@@ -7,7 +7,7 @@
 #include <filesystem>
 #include <optional>
 
-#include "flexcloud/clock_offset.h"
+#include "flexcloud/fusion/clock_offset.h"
 #include "flexcloud/georeference.h"
 #include "flexcloud/io/text_io.h"
 #include "real_drive.h"

@@ -6,10 +6,10 @@
 #include <functional>
 #include <random>
 
-#include "flexcloud/cloud_warp.h"
 #include "flexcloud/georeference.h"
 #include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/sim/sim_cloud.h"
+#include "flexcloud/warp/cloud_warp.h"
 #include "test_util.h"
 
 namespace flexcloud {

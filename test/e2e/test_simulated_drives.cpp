@@ -1,12 +1,12 @@
 // Simulated drives with the defaults, judged against the simulator's ground truth.
 #include <gtest/gtest.h>
 
-#include "flexcloud/cloud_warp.h"
-#include "flexcloud/geodesy.h"
+#include "flexcloud/geo/geodesy.h"
 #include "flexcloud/georeference.h"
 #include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/sim/scenarios.h"
 #include "flexcloud/sim/sim_cloud.h"
+#include "flexcloud/warp/cloud_warp.h"
 #include "test_util.h"
 
 namespace flexcloud {

@@ -12,9 +12,9 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "flexcloud/cloud_warp.h"
 #include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/io/pcd_io.h"
+#include "flexcloud/warp/cloud_warp.h"
 #include "test_util.h"
 
 namespace flexcloud {

@@ -12,8 +12,8 @@
 
 #include "flexcloud/Georeference.h"
 #include "flexcloud/Result.h"
-#include "flexcloud/cloud_warp.h"
 #include "flexcloud/io/cloud_layout.h"
+#include "flexcloud/warp/cloud_warp.h"
 
 namespace flexcloud::test {
 

@@ -2,7 +2,7 @@
 
 #include <random>
 
-#include "flexcloud/alignment.h"
+#include "flexcloud/sheet/alignment.h"
 
 namespace flexcloud {
 namespace {

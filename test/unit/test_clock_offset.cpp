@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <random>
 
-#include "flexcloud/clock_offset.h"
+#include "flexcloud/fusion/clock_offset.h"
 
 namespace flexcloud {
 namespace {

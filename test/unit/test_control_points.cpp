@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
-#include "flexcloud/control_points.h"
+#include "flexcloud/params.h"
+#include "flexcloud/sheet/control_points.h"
 
 namespace flexcloud {
 namespace {
@@ -33,7 +34,7 @@ TEST(ControlPoints, EvenlySpreadByArcLengthDespiteAStandstill) {
   const Drive d = standstillDrive();  // 70 m of path
   Params p;
   p.control_points = 8;  // one every 10 m
-  const auto sel = selectControlPoints(d.poses, d.gnss, p);
+  const auto sel = selectControlPoints(d.poses, d.gnss, controlPointOptions(p));
   ASSERT_EQ(sel.points.size(), 8u);
   for (std::size_t i = 0; i < sel.points.size(); ++i) {
     EXPECT_NEAR(sel.points[i].source.x(), 10.0 * static_cast<double>(i), 0.051);
@@ -53,7 +54,7 @@ TEST(ControlPoints, BadGnssIsReplacedByTheNearestGoodPoseInItsStretch) {
   for (auto& g : d.gnss) {
     if (g->position.x() > 17.05 && g->position.x() < 23.45) g->std_dev.setConstant(1.0);
   }
-  const auto sel = selectControlPoints(d.poses, d.gnss, p);
+  const auto sel = selectControlPoints(d.poses, d.gnss, controlPointOptions(p));
   ASSERT_EQ(sel.points.size(), 8u);
   EXPECT_EQ(sel.replaced, 1u);
   EXPECT_NEAR(sel.points[2].source.x(), 17.0, 0.051);  // 3 m from the target, 23.5 is 3.5 m
@@ -65,7 +66,7 @@ TEST(ControlPoints, WholeStretchUnusableIsSkippedAndCounted) {
   Params p;
   p.control_points = 8;
   p.excluded_ranges = {{13.0, 27.0}};  // x in [13, 27]: the whole stretch of the 20 m target
-  const auto sel = selectControlPoints(d.poses, d.gnss, p);
+  const auto sel = selectControlPoints(d.poses, d.gnss, controlPointOptions(p));
   EXPECT_EQ(sel.skipped, 1u);
   EXPECT_EQ(sel.points.size(), 7u);
   for (const auto& cp : sel.points) EXPECT_FALSE(cp.stamp >= 13.0 && cp.stamp <= 27.0);
@@ -77,7 +78,7 @@ TEST(ControlPoints, MoreAskedThanPosesGivesEachPoseOnce) {
   d.gnss.resize(11);
   Params p;
   p.control_points = 1000;
-  const auto sel = selectControlPoints(d.poses, d.gnss, p);
+  const auto sel = selectControlPoints(d.poses, d.gnss, controlPointOptions(p));
   EXPECT_EQ(sel.points.size(), 11u);
   // Every target is accounted for: taken, the same pose as a neighbour's, or no pose in reach.
   EXPECT_EQ(sel.points.size() + sel.merged + sel.skipped, 1000u);
@@ -87,7 +88,7 @@ TEST(ControlPoints, RefinementPicksTheWorstPosePerStretch) {
   const Drive d = standstillDrive();
   Params p;
   p.control_points = 4;
-  auto sel = selectControlPoints(d.poses, d.gnss, p);
+  auto sel = selectControlPoints(d.poses, d.gnss, controlPointOptions(p));
   std::vector<double> dev(d.poses.size(), 0.0);
   dev[50] = 0.3;   // x = 5, first stretch
   dev[60] = 0.5;   // same stretch, worse

@@ -6,8 +6,8 @@
 #include <set>
 
 #include "../common/test_util.h"
-#include "flexcloud/frame_convert.h"
-#include "flexcloud/projection.h"
+#include "flexcloud/geo/frame_convert.h"
+#include "flexcloud/geo/projection.h"
 #include "flexcloud/sim/drive_simulator.h"
 
 namespace flexcloud {

@@ -6,7 +6,7 @@
 #include <random>
 #include <vector>
 
-#include "flexcloud/fusion_factors.h"
+#include "flexcloud/fusion/fusion_factors.h"
 
 namespace flexcloud {
 namespace {

@@ -1,6 +1,6 @@
 #include <gtest/gtest.h>
 
-#include "flexcloud/geodesy.h"
+#include "flexcloud/geo/geodesy.h"
 #include "flexcloud/types.h"
 
 namespace flexcloud {

@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
-#include "flexcloud/gnss.h"
+#include "flexcloud/input/gnss.h"
+#include "flexcloud/params.h"
 
 namespace flexcloud {
 namespace {
@@ -35,7 +36,7 @@ TEST(Gnss, DatumIsTheEarliestValidFix) {
   auto v = drive();
   std::swap(v[0], v[5]);                              // out of order
   v.insert(v.begin(), fix(99.0, 0, 0, 0.02, false));  // NO_FIX earlier than all
-  const PreparedGnss g = prepareGeodeticGnss(v, Params{});
+  const PreparedGnss g = prepareGeodeticGnss(v, gnssOptions(Params{}));
   ASSERT_TRUE(g.datum);
   EXPECT_DOUBLE_EQ(g.datum->lat, 48.0);
   EXPECT_NEAR(g.points.front().position.norm(), 0.0, 1e-9);
@@ -54,7 +55,7 @@ TEST(Gnss, EveryDroppedFixIsCountedByReason) {
   v.push_back(fix(105.0, 48.0005, 11.0));             // duplicate stamp
   v[10].fix.lat += 0.01;                              // a 1.1 km jump for one fix
   v.push_back(fix(123.0, 48.0, 11.0, -1.0));          // negative std: invalid
-  const PreparedGnss g = prepareGeodeticGnss(v, legacy());
+  const PreparedGnss g = prepareGeodeticGnss(v, gnssOptions(legacy()));
   EXPECT_EQ(g.received, 25u);
   EXPECT_EQ(g.dropped.invalid, 3u);
   EXPECT_EQ(g.dropped.unknown_covariance, 1u);
@@ -68,7 +69,7 @@ TEST(Gnss, ASustainedJumpAwayAndBackLosesExactlyTheFixesInBetween) {
   for (int k = 0; k < 200; ++k) v.push_back(fix(100.0 + 0.2 * k, 48.0 + 0.18e-4 * k, 11.0));
   for (int k = 60; k < 90; ++k) v[k].fix.lon += 0.005;    // 6 s 370 m east, then back
   for (int k = 150; k < 151; ++k) v[k].fix.lat -= 0.004;  // and one fix 440 m south
-  const PreparedGnss g = prepareGeodeticGnss(v, legacy());
+  const PreparedGnss g = prepareGeodeticGnss(v, gnssOptions(legacy()));
   EXPECT_EQ(g.dropped.outlier, 31u);
   EXPECT_EQ(g.points.size(), 169u);
   for (const auto& p : g.points) EXPECT_LT(std::abs(p.position.x()), 1.0);  // none of the east ones
@@ -82,11 +83,11 @@ TEST(Gnss, AJumpAtTheStartIsTheMinorityNotTheReference) {
   p.datum_lat = 48.0;
   p.datum_lon = 11.0;
   p.datum_alt = 0.0;
-  const PreparedGnss g = prepareGeodeticGnss(v, p);
+  const PreparedGnss g = prepareGeodeticGnss(v, gnssOptions(p));
   EXPECT_EQ(g.dropped.outlier, 10u);
   EXPECT_NEAR(g.points.front().stamp, 102.0, 1e-9);
   // Without a given datum, the datum is the earliest fix that was kept, not a jumped one.
-  const PreparedGnss h = prepareGeodeticGnss(v, legacy());
+  const PreparedGnss h = prepareGeodeticGnss(v, gnssOptions(legacy()));
   EXPECT_NEAR(h.datum->lon, 11.0, 1e-12);
   EXPECT_NEAR(h.datum->lat, 48.0 + 0.18e-4 * 10, 1e-12);
   EXPECT_LT(h.points.front().position.norm(), 1e-6);
@@ -97,10 +98,10 @@ TEST(Gnss, DefaultStdDevKeepsFixesWithUnknownCovariance) {
   for (auto& f : v) f.fix.std_enu.setConstant(std::nan(""));
   Params p = legacy();
   p.default_std_dev = 0.5;
-  const PreparedGnss g = prepareGeodeticGnss(v, p);
+  const PreparedGnss g = prepareGeodeticGnss(v, gnssOptions(p));
   EXPECT_EQ(g.points.size(), v.size());
   EXPECT_DOUBLE_EQ(g.points[0].std_dev.x(), 0.5);
-  EXPECT_THROW(prepareGeodeticGnss(v, legacy()), Error);  // all dropped: a clear error
+  EXPECT_THROW(prepareGeodeticGnss(v, gnssOptions(legacy())), Error);  // all dropped: a clear error
 }
 
 TEST(Gnss, WithTheFusionNothingIsDroppedForJumpsOrUnknownCovariance) {
@@ -108,7 +109,7 @@ TEST(Gnss, WithTheFusionNothingIsDroppedForJumpsOrUnknownCovariance) {
   v[10].fix.lat += 0.01;                        // a 1.1 km jump: the fusion judges it
   v[12].fix.std_enu.setConstant(std::nan(""));  // no covariance: estimated by the fusion
   v[14].fix.std_enu.setZero();                  // a std-dev of 0 means "not given"
-  const PreparedGnss g = prepareGeodeticGnss(v, Params{});
+  const PreparedGnss g = prepareGeodeticGnss(v, gnssOptions(Params{}));
   EXPECT_EQ(g.points.size(), v.size());
   EXPECT_EQ(g.dropped.total(), 0u);
   EXPECT_TRUE(g.points[12].std_dev.hasNaN());
@@ -123,7 +124,7 @@ TEST(Gnss, GivenDatumAndTimeOffset) {
   p.datum_lon = 11.0;
   p.datum_alt = 0.0;
   p.gnss_time_offset = -0.25;
-  const PreparedGnss g = prepareGeodeticGnss(drive(), p);
+  const PreparedGnss g = prepareGeodeticGnss(drive(), gnssOptions(p));
   EXPECT_NEAR(g.points[0].position.z(), 100.0, 1e-6);
   EXPECT_DOUBLE_EQ(g.points[0].stamp, 99.75);
 }
@@ -131,7 +132,7 @@ TEST(Gnss, GivenDatumAndTimeOffset) {
 TEST(Gnss, NoFixAtAllIsAnErrorThatSaysWhy) {
   std::vector<RawFix> v{fix(1, 0, 0, 0.02, false), fix(2, 0, 0, 0.02, false)};
   try {
-    prepareGeodeticGnss(v, Params{});
+    prepareGeodeticGnss(v, gnssOptions(Params{}));
     FAIL();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("no fix 2"), std::string::npos) << e.what();

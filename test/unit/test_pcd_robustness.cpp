@@ -6,9 +6,9 @@
 #include <cstring>
 #include <fstream>
 
-#include "flexcloud/cloud_warp.h"
 #include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/io/pcd_io.h"
+#include "flexcloud/warp/cloud_warp.h"
 #include "test_util.h"
 
 namespace flexcloud {

@@ -4,7 +4,7 @@
 #include <map>
 #include <random>
 
-#include "flexcloud/rubber_sheet.h"
+#include "flexcloud/sheet/rubber_sheet.h"
 
 namespace flexcloud {
 namespace {

@@ -1,11 +1,11 @@
-// The sheet fitted to the whole fused trajectory (src/core/sheet_fit.h), on a straight 200 m
+// The sheet fitted to the whole fused trajectory (src/core/sheet/sheet_fit.h), on a straight 200 m
 // drive with a control point every 50 m and points beside each, as the product places them.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <functional>
 
-#include "sheet_fit.h"
+#include "sheet/sheet_fit.h"
 
 namespace flexcloud {
 namespace {

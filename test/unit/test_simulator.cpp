@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "flexcloud/geodesy.h"
+#include "flexcloud/geo/geodesy.h"
 #include "flexcloud/metrics.h"
 #include "flexcloud/sim/drive_simulator.h"
 #include "flexcloud/sim/scenarios.h"

@@ -5,8 +5,8 @@
 #include <cmath>
 #include <random>
 
-#include "flexcloud/gnss_detail.h"
-#include "flexcloud/slam_jitter.h"
+#include "flexcloud/fusion/gnss_detail.h"
+#include "flexcloud/fusion/slam_jitter.h"
 
 namespace flexcloud {
 namespace {

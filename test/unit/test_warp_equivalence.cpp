@@ -12,13 +12,13 @@
 #include <random>
 
 #include "body_copy.h"
-#include "flexcloud/cloud_warp.h"
 #include "flexcloud/georeference.h"
 #include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/io/map_precopy.h"
 #include "flexcloud/io/map_stream.h"
 #include "flexcloud/io/pcd_io.h"
 #include "flexcloud/sim/sim_cloud.h"
+#include "flexcloud/warp/cloud_warp.h"
 #include "test_util.h"
 
 namespace flexcloud {

@@ -6,7 +6,7 @@
 #include <string>
 
 #include "flexcloud/cancel.h"
-#include "flexcloud/projection.h"
+#include "flexcloud/geo/projection.h"
 
 namespace flexcloud {
 

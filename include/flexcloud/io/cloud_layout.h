@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "flexcloud/cloud_warp.h"
+#include "flexcloud/warp/cloud_warp.h"
 
 namespace flexcloud {
 

@@ -7,7 +7,7 @@
 #include <string>
 
 #include "flexcloud/cancel.h"
-#include "flexcloud/geodesy.h"
+#include "flexcloud/geo/geodesy.h"
 
 namespace flexcloud {
 

@@ -7,7 +7,7 @@
 
 #include "flexcloud/cancel.h"
 #include "flexcloud/io/outputs.h"
-#include "flexcloud/rubber_sheet.h"
+#include "flexcloud/sheet/rubber_sheet.h"
 
 namespace flexcloud {
 

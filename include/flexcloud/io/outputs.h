@@ -8,10 +8,10 @@
 #include <optional>
 #include <string>
 
-#include "flexcloud/cloud_warp.h"
 #include "flexcloud/georeference.h"
 #include "flexcloud/io/autoware_map.h"
 #include "flexcloud/io/las_writer.h"
+#include "flexcloud/warp/cloud_warp.h"
 
 namespace flexcloud {
 

@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "flexcloud/gnss.h"
+#include "flexcloud/input/gnss.h"
 #include "flexcloud/types.h"
 
 namespace flexcloud {

@@ -10,11 +10,11 @@
 #include <sensor_msgs/PointCloud2.h>
 
 #include "flexcloud/Deviation.h"
-#include "flexcloud/cloud_warp.h"
-#include "flexcloud/geodesy.h"
-#include "flexcloud/gnss.h"
+#include "flexcloud/geo/geodesy.h"
+#include "flexcloud/input/gnss.h"
 #include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/types.h"
+#include "flexcloud/warp/cloud_warp.h"
 
 namespace flexcloud::ros_conv {
 

@@ -1,6 +1,6 @@
 #pragma once
 // The answers of ~to_ll, ~from_ll and ~to_enu for a result: the conversions of
-// flexcloud/frame_convert.h in the services' messages.
+// flexcloud/geo/frame_convert.h in the services' messages.
 
 #include <flexcloud/FromLL.h>
 #include <flexcloud/ToEnu.h>

@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "flexcloud/geodesy.h"
+#include "flexcloud/geo/geodesy.h"
 #include "flexcloud/georeference.h"
-#include "flexcloud/gnss.h"
+#include "flexcloud/input/gnss.h"
 #include "flexcloud/sim/gnss_errors.h"
 #include "flexcloud/sim/slam_errors.h"
 #include "flexcloud/types.h"

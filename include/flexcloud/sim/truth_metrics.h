@@ -5,7 +5,7 @@
 #include <functional>
 
 #include "flexcloud/metrics.h"
-#include "flexcloud/rubber_sheet.h"
+#include "flexcloud/sheet/rubber_sheet.h"
 #include "flexcloud/sim/drive_simulator.h"
 
 namespace flexcloud::sim {

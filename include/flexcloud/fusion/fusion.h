@@ -1,0 +1,143 @@
+#pragma once
+// Robust fusion of the SLAM trajectory and the GNSS into one estimate of the true trajectory,
+// before any control point is chosen. The SLAM is right locally and wrong globally; the GNSS is
+// right globally and wrong locally, sometimes badly and sometimes while claiming to be good.
+//
+// A pose graph over keyframes of the SLAM trajectory (Ceres Solver): each keyframe has a pose in
+// ENU and a drift state (rotation rate per metre and scale error) that changes slowly; the SLAM
+// relative motion between keyframes is a factor whose noise grows with the path; each fix is a
+// factor on the antenna position (the pose at the fix's stamp, the lever arm applied) weighted
+// by its std-dev, under a redescending loss (Geman-McClure) whose scale shrinks stage by stage
+// (graduated non-convexity), so clusters of false RTK fixes lose their pull. The GNSS clock
+// offset is a parameter of the problem; std-devs the receiver does not give are estimated from
+// the residuals.
+
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "flexcloud/cancel.h"
+#include "flexcloud/types.h"
+
+namespace flexcloud {
+
+/// Why a fix did not take part in, or was rejected by, the fusion.
+enum class FixVerdict {
+  kUsed,            ///< an inlier
+  kOutlier,         ///< rejected by the robust loss: far from what SLAM and the other fixes say
+  kAboveThreshold,  ///< its reported std-dev is above stddev_threshold
+  kExcluded,        ///< in one of the excluded time ranges
+  kOutsidePoses,    ///< outside the time span of the poses
+};
+
+std::string toString(FixVerdict v);
+
+/// What became of one fix.
+struct FixOutcome {
+  double stamp = 0.0;  ///< GNSS clock, time offset of the parameters applied
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< ENU
+  double residual = 0.0;  ///< m, from the fused antenna position (NaN where not fused)
+  /// The fix less the fused antenna position, ENU, m (NaN where not fused).
+  Eigen::Vector3d error = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  /// Its own 1-sigma std-dev (reported, or estimated where not given; floored), ENU, m. For a
+  /// fix that took no part: the reported one, NaN where none was given.
+  Eigen::Vector3d std_dev = Eigen::Vector3d::Zero();
+  /// The SLAM's pose-to-pose error at its stamp (1-sigma, x = y horizontal, z vertical), m:
+  /// added to std_dev in the fusion's weight of the fix.
+  Eigen::Vector3d slam_jitter = Eigen::Vector3d::Zero();
+  /// How little the SLAM's interpolation knows of where the vehicle was at its stamp (1-sigma,
+  /// m; 0 at a pose's stamp, up to half the poses' distance in a long gap between them, as at
+  /// a stop of a SLAM that keeps a pose every few metres): added to std_dev as well.
+  double slam_gap = 0.0;
+  double weight = 0.0;  ///< final weight of the robust loss, 0..1
+  FixVerdict verdict = FixVerdict::kUsed;
+};
+
+struct FusionResult {
+  /// The fused pose (ENU, body frame) at every pose of the input, in the same order.
+  Trajectory poses;
+  std::vector<FixOutcome> fixes;
+  /// Clock offset estimated on top of params.gnss_time_offset, s (SLAM time = GNSS time +
+  /// offset: a fix stamped t was taken at SLAM time t + offset).
+  double time_offset = 0.0;
+  /// Whether the offset was estimated: asked for (max_time_offset > 0) and shown by the speed
+  /// profiles of the SLAM and the GNSS (otherwise it stays 0), its 1-sigma from the fusion
+  /// (s; infinite where not estimated), and what the speed profiles alone showed with their
+  /// 1-sigma (infinite where the speed varied too little).
+  bool time_offset_estimated = false;
+  double time_offset_sigma = 0.0;
+  double time_offset_from_speed = 0.0;
+  double time_offset_speed_sigma = 0.0;
+  Eigen::Vector3d lever_arm = Eigen::Vector3d::Zero();  ///< applied, body frame, m
+  /// The 1-sigma std-devs given to fixes without one: estimated from the residuals (NaN when
+  /// every fix had its own).
+  double estimated_std_h = 0.0;
+  double estimated_std_v = 0.0;
+  /// Median std-dev the fused fixes were weighted with (horizontal, m).
+  double median_std_h = 0.0;
+  /// Factor the slam_*_noise parameters were multiplied with (1: as given). It grows when the
+  /// fused trajectory stays further from the GNSS's inliers than their own noise allows: a SLAM
+  /// that drifts more than its noise parameters say.
+  double slam_noise_scale = 1.0;
+  /// Factors on the reported std-devs of the fixes by class of their horizontal std-dev: below
+  /// 5 cm (RTK-fixed), below 50 cm (float), above; from the drive (1: as reported).
+  double reported_std_scale[3] = {1.0, 1.0, 1.0};
+  /// Upper bound of the GNSS's horizontal white noise from its own roughness, m.
+  double gnss_roughness_h = 0.0;
+  /// The SLAM's pose-to-pose error at the inliers (median, 1-sigma, m), and what the poses
+  /// took of the fixes' detail because of it (gnss_detail.h): per pose the larger of the
+  /// horizontal and vertical gain (0: the fused pose kept), how many moved and the largest move.
+  double slam_jitter_h = 0.0;
+  double slam_jitter_v = 0.0;
+  std::vector<double> detail_gain;
+  std::size_t detail_poses = 0;
+  double detail_max_shift = 0.0;
+  /// Leave-out (when asked for): per input fix held out of its fold's solve, its distance
+  /// from the antenna that solve predicts at its instant, m; NaN for the others.
+  std::vector<double> leave_out_deviation;
+  std::size_t keyframes = 0;
+  std::size_t used = 0;
+  std::size_t outliers = 0;
+  std::size_t above_threshold = 0;
+  std::size_t excluded = 0;
+  std::size_t outside = 0;
+  int stages = 0;  ///< robust-loss stages solved
+  double seconds = 0.0;
+};
+
+/// Which fixes a leave-out holds out together: fold[j] of input fix j (-1: never), folds in
+/// all. Each fold is solved again without its fixes, from the full solution.
+struct LeaveOutFolds {
+  std::vector<int> fold;
+  int folds = 0;
+};
+
+/// The numbers the fusion uses; fusionOptions() (params.h) fills them from the parameter table.
+struct FusionOptions {
+  double keyframe_spacing = 0.0;        ///< m of path between the keyframes estimated
+  double slam_rotation_noise = 0.0;     ///< deg/sqrt(km), random rotation error of the SLAM
+  double slam_translation_noise = 0.0;  ///< m/sqrt(km)
+  double slam_drift_noise = 0.0;        ///< deg/km/sqrt(km), change of the rotation drift rate
+  double slam_scale_noise = 0.0;        ///< %/sqrt(km), change of the scale error
+  double gnss_std_floor = 0.0;          ///< m, the smallest std-dev a fix is weighted with
+  double outlier_threshold = 0.0;       ///< sigma, scale of the robust loss
+  double max_time_offset = 0.0;         ///< s, the largest GNSS clock offset estimated
+  double max_slam_noise_scale = 0.0;    ///< largest factor the SLAM noise is raised by
+  Eigen::Vector3d lever_arm = Eigen::Vector3d::Zero();  ///< m, the antenna in the body frame
+  double stddev_threshold = 0.0;           ///< m, reported std-devs above it are not taken as given
+  std::vector<TimeRange> excluded_ranges;  ///< stamps whose fixes take no part
+  int threads = 0;                         ///< solver threads; 0: all cores
+};
+
+/// Fuses `poses` (SLAM, map frame, sorted by stamp) with `gnss` (ENU, sorted by stamp, std-dev
+/// NaN where not given), starting from the rigid alignment T_enu_map, and takes the fixes'
+/// detail where the SLAM is rough (takeGnssDetail). With `folds`, also the leave-out
+/// (FusionResult::leave_out_deviation). Throws Error when fewer than 3 fixes can take part, or
+/// when cancelled.
+FusionResult fuseTrajectory(const Trajectory& poses, const std::vector<GnssPoint>& gnss,
+                            const Eigen::Isometry3d& T_enu_map, const FusionOptions& options,
+                            const CancelToken& cancel = neverCancelled(),
+                            const LeaveOutFolds& folds = {});
+
+}  // namespace flexcloud

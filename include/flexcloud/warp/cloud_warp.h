@@ -1,0 +1,51 @@
+#pragma once
+// Warping a point cloud of any layout: only the x, y, z fields change, in place; every other
+// field, the point order and the NaN points stay as they were.
+
+#include <functional>
+
+#include "flexcloud/cancel.h"
+#include "flexcloud/metrics.h"
+#include "flexcloud/sheet/rubber_sheet.h"
+
+namespace flexcloud {
+
+/// Where x, y and z sit in each point and whether they are float32 or float64.
+struct XyzLayout {
+  std::size_t offset[3] = {0, 0, 0};
+  bool is_double[3] = {false, false, false};
+  std::size_t point_step = 0;
+  std::size_t points = 0;
+
+  // Read from a PCL cloud by xyzLayout() (flexcloud/io/cloud_layout.h).
+  Eigen::Vector3d get(const std::uint8_t* point) const;
+  void set(std::uint8_t* point, const Eigen::Vector3d& p) const;
+};
+
+struct WarpStats {
+  std::size_t points = 0;
+  std::size_t outside = 0;     ///< beyond the cuboid: moved by the rigid transform, counted
+  std::size_t non_finite = 0;  ///< NaN/inf points: kept as they are, in place
+  /// Finite points before the warp (map frame), about 1000 evenly spread per call of
+  /// warpPoints(): enough to judge where the map lies against its trajectory.
+  std::vector<Eigen::Vector3d> sample;
+};
+
+/// Warps the xyz of every point of a raw buffer of the given layout with the rubber sheet (map
+/// frame -> ENU), on `threads` threads (0: all cores). Throws Error("NAME: warp: cancelled")
+/// once `cancel` is cancelled (the points are then partly warped).
+WarpStats warpPoints(std::uint8_t* data, const XyzLayout& layout, const RubberSheet& sheet,
+                     int threads, const std::string& name = "map",
+                     const CancelToken& cancel = neverCancelled());
+
+/// Deviation of `n` points of `a` (mapped by `f`) from the same points of `b`, added to
+/// `acc` (NaN points skipped).
+void comparePoints(const std::uint8_t* a, const XyzLayout& la, const std::uint8_t* b,
+                   const XyzLayout& lb, std::size_t n,
+                   const std::function<Eigen::Vector3d(const Eigen::Vector3d&)>& f,
+                   ErrorAccumulator& acc);
+
+/// Number of worker threads for a request (0: hardware concurrency, at least 1).
+int resolveThreads(int requested);
+
+}  // namespace flexcloud

@@ -1,0 +1,83 @@
+#include "flexcloud/input/trajectory.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace flexcloud {
+
+Trajectory preparePoses(const Trajectory& poses, PoseCounts& counts) {
+  counts = PoseCounts{};
+  counts.received = poses.size();
+  Trajectory valid;
+  valid.reserve(poses.size());
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    Pose p = poses[i];
+    const double qn = p.orientation.coeffs().norm();
+    if (!std::isfinite(p.stamp) || !p.position.allFinite() || !std::isfinite(qn) || qn < 1e-6 ||
+        p.position.cwiseAbs().maxCoeff() > 1e8) {
+      ++counts.invalid;
+      continue;
+    }
+    if (std::abs(qn - 1.0) > 1e-6) ++counts.normalised;
+    p.orientation.coeffs() /= qn;
+    if (!valid.empty() && p.stamp < valid.back().stamp) ++counts.reordered;
+    valid.push_back(p);
+  }
+  std::stable_sort(valid.begin(), valid.end(),
+                   [](const Pose& a, const Pose& b) { return a.stamp < b.stamp; });
+  Trajectory out;
+  out.reserve(valid.size());
+  for (const auto& p : valid) {
+    if (!out.empty() && p.stamp == out.back().stamp) {
+      ++counts.duplicate;
+      continue;
+    }
+    out.push_back(p);
+  }
+  return out;
+}
+
+std::vector<double> arcLength(const std::vector<Eigen::Vector3d>& positions) {
+  std::vector<double> s(positions.size(), 0.0);
+  for (std::size_t i = 1; i < positions.size(); ++i) {
+    s[i] = s[i - 1] + (positions[i] - positions[i - 1]).norm();
+  }
+  return s;
+}
+
+std::vector<Eigen::Vector3d> positionsOf(const Trajectory& poses) {
+  std::vector<Eigen::Vector3d> out;
+  out.reserve(poses.size());
+  for (const auto& p : poses) out.push_back(p.position);
+  return out;
+}
+
+std::optional<Pose> poseAt(const Trajectory& poses, double t) {
+  const auto it = std::lower_bound(poses.begin(), poses.end(), t,
+                                   [](const Pose& p, double s) { return p.stamp < s; });
+  if (it == poses.end()) return std::nullopt;
+  if (it->stamp == t) return *it;
+  if (it == poses.begin()) return std::nullopt;
+  const Pose& a = *(it - 1);
+  const double f = (t - a.stamp) / (it->stamp - a.stamp);
+  Pose out;
+  out.stamp = t;
+  out.position = a.position + f * (it->position - a.position);
+  out.orientation = a.orientation.slerp(f, it->orientation);
+  return out;
+}
+
+std::vector<double> deviationsAtFixes(const Trajectory& track, const std::vector<GnssPoint>& fixes,
+                                      double offset, const Eigen::Vector3d& lever_arm) {
+  std::vector<double> out;
+  out.reserve(fixes.size());
+  for (const auto& g : fixes) {
+    const std::optional<Pose> p = poseAt(track, g.stamp + offset);
+    out.push_back(p ? (p->position + p->orientation * lever_arm - g.position).norm()
+                    : std::numeric_limits<double>::quiet_NaN());
+  }
+  return out;
+}
+
+}  // namespace flexcloud

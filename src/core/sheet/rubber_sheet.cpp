@@ -1,0 +1,216 @@
+#include "flexcloud/sheet/rubber_sheet.h"
+
+#include <CGAL/Delaunay_triangulation_3.h>
+#include <CGAL/Delaunay_triangulation_cell_base_3.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Triangulation_cell_base_with_info_3.h>
+#include <CGAL/Triangulation_vertex_base_with_info_3.h>
+
+#include <Eigen/QR>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "cell_hash.h"
+#include "sheet/tet_locator.h"
+
+namespace flexcloud {
+
+struct RubberSheet::Cgal {
+  using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+  using Vb = CGAL::Triangulation_vertex_base_with_info_3<int, K>;
+  using Cb = CGAL::Triangulation_cell_base_with_info_3<int, K,
+                                                       CGAL::Delaunay_triangulation_cell_base_3<K>>;
+  using Tds = CGAL::Triangulation_data_structure_3<Vb, Cb>;
+  using Delaunay = CGAL::Delaunay_triangulation_3<K, Tds>;
+  using Point = K::Point_3;
+  Delaunay dt;
+};
+
+namespace {
+
+constexpr double kMergeDistance = 1e-3;  // m: sources closer than this are one point
+constexpr double kFlatQuality = 1e-9;    // |det(edges)| / longest^3 below this: a flat sliver
+
+/// Keeps the first of any sources within kMergeDistance of each other.
+std::vector<std::size_t> mergeNearDuplicates(const std::vector<Eigen::Vector3d>& pts) {
+  CellMap<std::vector<std::size_t>> buckets;
+  std::vector<std::size_t> kept;
+  kept.reserve(pts.size());
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    const Cell key = cellOf(pts[i], kMergeDistance);
+    bool duplicate = false;
+    for (int dx = -1; dx <= 1 && !duplicate; ++dx) {
+      for (int dy = -1; dy <= 1 && !duplicate; ++dy) {
+        for (int dz = -1; dz <= 1 && !duplicate; ++dz) {
+          const auto it = buckets.find(key + Cell(dx, dy, dz));
+          if (it == buckets.end()) continue;
+          for (std::size_t j : it->second) {
+            if ((pts[j] - pts[i]).norm() < kMergeDistance) duplicate = true;
+          }
+        }
+      }
+    }
+    if (duplicate) continue;
+    buckets[key].push_back(i);
+    kept.push_back(i);
+  }
+  return kept;
+}
+
+}  // namespace
+
+RubberSheet::RubberSheet(const std::vector<Eigen::Vector3d>& source,
+                         const std::vector<Eigen::Vector3d>& target, const Affine34& outside,
+                         const Eigen::Isometry3d& input_to_source)
+    : outside_(outside), input_to_source_(input_to_source), cgal_(std::make_unique<Cgal>()) {
+  if (source.size() != target.size()) {
+    throw Error("rubber sheet: " + std::to_string(source.size()) + " source points but " +
+                std::to_string(target.size()) + " targets");
+  }
+  for (std::size_t i = 0; i < source.size(); ++i) {
+    if (!source[i].allFinite() || !target[i].allFinite()) {
+      throw Error("rubber sheet: control point " + std::to_string(i) + " is not finite");
+    }
+  }
+  const std::vector<std::size_t> kept = mergeNearDuplicates(source);
+  merged_ = source.size() - kept.size();
+  std::vector<std::pair<Cgal::Point, int>> points;
+  points.reserve(kept.size());
+  for (std::size_t i : kept) {
+    const int idx = static_cast<int>(source_.size());
+    source_.push_back(source[i]);
+    target_.push_back(target[i]);
+    points.emplace_back(Cgal::Point(source[i].x(), source[i].y(), source[i].z()), idx);
+  }
+  auto& dt = cgal_->dt;
+  dt.insert(points.begin(), points.end());
+  if (dt.dimension() < 3) {
+    throw Error("rubber sheet: the " + std::to_string(source_.size()) +
+                " control points span no volume (degenerate triangulation)");
+  }
+  buildTets(input_to_source);
+  // The locator's box: every source, in the input frame.
+  const Eigen::Isometry3d source_to_input = input_to_source.inverse();
+  Eigen::Vector3d lo = source_to_input * source_.front();
+  Eigen::Vector3d hi = lo;
+  for (const auto& src : source_) {
+    lo = lo.cwiseMin(source_to_input * src);
+    hi = hi.cwiseMax(source_to_input * src);
+  }
+  input_box_ = Eigen::AlignedBox3d(lo, hi);
+  locator_ =
+      std::make_unique<TetLocator>(geometry_, tet_vertices_, source_, input_to_source, lo, hi);
+}
+
+void RubberSheet::buildTets(const Eigen::Isometry3d& input_to_source) {
+  auto& dt = cgal_->dt;
+  int next = 0;
+  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) c->info() = next++;
+  geometry_.resize(static_cast<std::size_t>(next));
+  affine_.resize(geometry_.size());
+  tet_vertices_.resize(geometry_.size());
+  std::vector<bool> flat(geometry_.size(), false);
+  const Eigen::Matrix3d rot = input_to_source.linear();
+  const Eigen::Isometry3d source_to_input = input_to_source.inverse();
+  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
+    const auto t = static_cast<std::size_t>(c->info());
+    LocatorTet& tet = geometry_[t];
+    Affine34& affine = affine_[t];
+    std::array<int, 4>& v = tet_vertices_[t];
+    for (int i = 0; i < 4; ++i) {
+      v[i] = c->vertex(i)->info();
+      const auto nb = c->neighbor(i);
+      tet.neighbour[i] = dt.is_infinite(nb) ? -1 : nb->info();
+    }
+    const auto& s = source_;
+    const auto& d = target_;
+    Eigen::Matrix3d edges;
+    Eigen::Matrix3d images;
+    double longest = 0.0;
+    for (int i = 0; i < 3; ++i) {
+      edges.col(i) = s[v[i + 1]] - s[v[0]];
+      images.col(i) = d[v[i + 1]] - d[v[0]];
+      longest = std::max(longest, edges.col(i).norm());
+    }
+    flat[t] = std::abs(edges.determinant()) < kFlatQuality * longest * longest * longest;
+    // Householder QR with full pivoting, as in the published method, on vertex-relative
+    // coordinates so that large coordinates do not cost precision.
+    const Eigen::FullPivHouseholderQR<Eigen::Matrix3d> qr(edges);
+    const Eigen::Matrix3d bary = qr.solve(Eigen::Matrix3d::Identity());
+    const Eigen::Matrix3d linear = images * bary;
+    // Fold the input -> source transform in: input point q lies at input_to_source * q.
+    tet.bary = bary * rot;
+    tet.v0 = source_to_input * s[v[0]];
+    // Rounding of the barycentric coordinates: the inverse's own (conditioning), that of
+    // subtracting coordinates of this magnitude, and that of v0, which came back from the
+    // source frame through the alignment (with the GNSS in UTM-size coordinates both are
+    // thousands of kilometres, and v0 keeps their rounding); 256 eps of all is a safe bound.
+    const double cond = edges.norm() * bary.norm();
+    const double back = s[v[0]].norm() + input_to_source.translation().norm();
+    tet.tolerance = 256.0 * std::numeric_limits<double>::epsilon() *
+                    (cond + bary.norm() * (tet.v0.norm() + longest + back));
+    affine.leftCols<3>() = linear * rot;
+    affine.col(3) = linear * (input_to_source.translation() - s[v[0]]) + d[v[0]];
+  }
+  replaceDegenerate(flat);
+}
+
+void RubberSheet::replaceDegenerate(const std::vector<bool>& flat) {
+  // A nearly flat tetrahedron has no reliable transform of its own; it holds almost no volume,
+  // so it borrows the transform of the nearest solid tetrahedron across its faces.
+  for (std::size_t t = 0; t < geometry_.size(); ++t) {
+    if (!flat[t]) continue;
+    ++degenerate_;
+    std::vector<int> queue{static_cast<int>(t)};
+    std::vector<bool> seen(geometry_.size(), false);
+    seen[t] = true;
+    for (std::size_t head = 0; head < queue.size(); ++head) {
+      const int cur = queue[head];
+      if (!flat[static_cast<std::size_t>(cur)]) {
+        affine_[t] = affine_[static_cast<std::size_t>(cur)];
+        break;
+      }
+      for (int nb : geometry_[static_cast<std::size_t>(cur)].neighbour) {
+        if (nb >= 0 && !seen[static_cast<std::size_t>(nb)]) {
+          seen[static_cast<std::size_t>(nb)] = true;
+          queue.push_back(nb);
+        }
+      }
+    }
+  }
+}
+
+RubberSheet::~RubberSheet() = default;
+
+void RubberSheet::prepare(int threads, const std::vector<Eigen::Vector3d>* sample) const {
+  std::call_once(grid_once_, [&] {
+    locator_->build(threads, sample);
+    prepared_.store(true, std::memory_order_release);
+  });
+}
+
+Eigen::Vector3i RubberSheet::gridSize() const { return locator_->gridSize(); }
+
+RubberSheet::Location RubberSheet::locate(const Eigen::Vector3d& p) const {
+  prepare();
+  const TetLocator::Location l = locator_->locate(p);
+  return {l.tet, l.outside};
+}
+
+RubberSheet::Location RubberSheet::locateFrom(const Eigen::Vector3d& p, int hint) const {
+  const bool valid = hint >= 0 && static_cast<std::size_t>(hint) < geometry_.size();
+  const TetLocator::Location l = locator_->walk(p, valid ? hint : 0);
+  return {l.tet, l.outside};
+}
+
+Eigen::Vector3d RubberSheet::transformReference(const Eigen::Vector3d& p, bool* outside) const {
+  const auto& dt = cgal_->dt;
+  const Eigen::Vector3d q = input_to_source_ * p;
+  const auto cell = dt.locate(Cgal::Point(q.x(), q.y(), q.z()));
+  const bool out = dt.is_infinite(cell);
+  if (outside != nullptr) *outside = out;
+  return apply(out ? outside_ : affine_[static_cast<std::size_t>(cell->info())], p);
+}
+
+}  // namespace flexcloud

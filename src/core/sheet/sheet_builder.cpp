@@ -1,0 +1,227 @@
+#include "sheet/sheet_builder.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "flexcloud/input/trajectory.h"
+#include "flexcloud/metrics.h"
+#include "sheet/sheet_fit.h"
+
+namespace flexcloud {
+namespace {
+
+constexpr double kMinRefineDeviation = 1e-3;  // m: a deviation below this needs no control point
+// Vertices of poses more than this many section sizes of path apart belong to different passes.
+constexpr double kPassGapSizes = 8.0;
+// m: a pose the sheet carries further than this from its fused pose gets a control point of
+// its own, for at most this many rounds.
+constexpr double kFaithful = 0.05;
+constexpr int kFaithfulRounds = 3;
+constexpr double kFaithfulSeparation = 0.05;
+constexpr double kBreakMedians = 10.0;
+
+/// Path (m) beyond which the vertices of two poses belong to different passes.
+double passGap(const SheetOptions& options) {
+  return kPassGapSizes * std::max(options.beside_distance, options.above_height);
+}
+
+/// Per vertex of the sheet, the path (m) of the pose it belongs to: the control points', then
+/// the points beside them, NaN for the cuboid's corners; empty where the sheet merged vertices
+/// (the order then no longer tells which is which).
+std::vector<double> vertexArcs(const RubberSheet& sheet, const ControlPointSelection& cps,
+                               const std::vector<PointPair>& beside,
+                               const std::vector<double>& arc) {
+  if (sheet.merged() != 0 || sheet.sources().size() != cps.points.size() + beside.size() + 8) {
+    return {};
+  }
+  std::vector<double> out;
+  for (const auto& cp : cps.points) out.push_back(arc[cp.pose_index]);
+  for (const auto& b : beside) out.push_back(arc[b.pose_index]);
+  out.resize(sheet.sources().size(), std::numeric_limits<double>::quiet_NaN());
+  return out;
+}
+
+/// Deviation (m) of each usable pose, warped by the sheet, from its GNSS; NaN elsewhere.
+std::vector<double> sheetDeviation(const RubberSheet& sheet, const Trajectory& poses,
+                                   const std::vector<std::optional<GnssPoint>>& gnss,
+                                   const std::vector<bool>& usable) {
+  std::vector<double> deviation(poses.size(), std::numeric_limits<double>::quiet_NaN());
+  int hint = 0;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    if (!usable[i]) continue;
+    const auto loc = sheet.locateFrom(poses[i].position, hint);
+    if (!loc.outside) hint = loc.tet;
+    deviation[i] =
+        (RubberSheet::apply(sheet.affineAt(loc), poses[i].position) - gnss[i]->position).norm();
+  }
+  return deviation;
+}
+
+/// Error-driven refinement of `cps` up to `total` control points (Params::refine_fraction).
+void refineControlPoints(ControlPointSelection& cps, const Trajectory& poses,
+                         const std::vector<std::optional<GnssPoint>>& gnss,
+                         const std::vector<bool>& usable, const Eigen::Isometry3d& T_enu_map,
+                         const Cuboid& cuboid, std::size_t total) {
+  std::size_t first = poses.size(), last = 0;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    if (gnss[i]) first = std::min(first, i), last = std::max(last, i);
+  }
+  const std::vector<double> arc = arcLength(positionsOf(poses));
+  // A refinement keeps 1/20 of the even spacing (at the full count) of path from its neighbours:
+  // enough that a standstill gathers no control points, small enough not to cost accuracy
+  // (a quarter of the spacing raised the real drive's MAX at 50 control points from 1.4 to 13 m).
+  const double separation =
+      0.05 * (arc[last] - arc[first]) / static_cast<double>(std::max<std::size_t>(1, total - 1));
+  while (cps.points.size() < total) {
+    const auto sheet = buildSheet(cps, {}, T_enu_map, cuboid);
+    const std::vector<double> deviation = sheetDeviation(*sheet, poses, gnss, usable);
+    const std::size_t have = cps.points.size();
+    const std::size_t round = std::min(total - have, std::max<std::size_t>(1, have / 4));
+    const auto picks = pickRefinements(cps, deviation, arc, separation, round, kMinRefineDeviation);
+    if (picks.empty()) break;
+    addControlPoints(cps, picks, poses, gnss);
+  }
+}
+
+}  // namespace
+
+Cuboid makeCuboid(const Trajectory& aligned, const std::vector<std::optional<GnssPoint>>& gnss,
+                  const SheetOptions& options) {
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d hi = -lo;
+  for (std::size_t i = 0; i < aligned.size(); ++i) {
+    lo = lo.cwiseMin(aligned[i].position);
+    hi = hi.cwiseMax(aligned[i].position);
+    if (gnss[i]) {
+      lo = lo.cwiseMin(gnss[i]->position);
+      hi = hi.cwiseMax(gnss[i]->position);
+    }
+  }
+  const Eigen::Vector3d extent = hi - lo;
+  const Eigen::Vector3d margin = options.margin.cwiseProduct(extent).cwiseMax(options.margin_min);
+  lo -= margin;
+  hi += margin;
+  std::array<Eigen::Vector3d, 8> corners;
+  for (int c = 0; c < 8; ++c) {
+    corners[c] = Eigen::Vector3d((c & 1) ? hi.x() : lo.x(), (c & 2) ? hi.y() : lo.y(),
+                                 (c & 4) ? hi.z() : lo.z());
+  }
+  return corners;
+}
+
+std::shared_ptr<const RubberSheet> buildSheet(const ControlPointSelection& cps,
+                                              const std::vector<PointPair>& extra,
+                                              const Eigen::Isometry3d& T_enu_map,
+                                              const Cuboid& cuboid) {
+  // The triangulation lives in the aligned frame, where the cuboid is axis-aligned.
+  std::vector<Eigen::Vector3d> src;
+  std::vector<Eigen::Vector3d> dst;
+  for (const auto& cp : cps.points) {
+    src.push_back(T_enu_map * cp.source);
+    dst.push_back(cp.target);
+  }
+  for (const auto& e : extra) {
+    src.push_back(T_enu_map * e.source);
+    dst.push_back(e.target);
+  }
+  // The corners keep their rigidly aligned position, and so does everything beyond them. (Moving
+  // them with a global affine fit was tried: on simulated drives it multiplied the map error,
+  // since the vertical shear fitted on a near-flat drive grows toward the distant corners.)
+  for (const auto& c : cuboid) {
+    src.push_back(c);
+    dst.push_back(c);
+  }
+  Affine34 outside;
+  outside << T_enu_map.linear(), T_enu_map.translation();
+  return std::make_shared<RubberSheet>(src, dst, outside, T_enu_map);
+}
+
+ControlPointSelection chooseControlPoints(const Trajectory& poses,
+                                          const std::vector<std::optional<GnssPoint>>& targets,
+                                          const std::vector<bool>& usable,
+                                          const Eigen::Isometry3d& T_enu_map, const Cuboid& cuboid,
+                                          const SheetOptions& options) {
+  const auto total = static_cast<std::size_t>(options.control_points.count);
+  const auto refined = static_cast<std::size_t>(std::lround(options.refine_fraction * total));
+  ControlPointOptions even = options.control_points;
+  even.count = static_cast<int>(std::max<std::size_t>(4, total - refined));
+  ControlPointSelection cps = selectControlPoints(poses, targets, even);
+  cps.requested = total;
+  if (cps.points.size() < 4) {
+    std::size_t with_target = 0;
+    for (const auto& t : targets) with_target += t.has_value() ? 1 : 0;
+    throw Error("control points: " + std::to_string(cps.points.size()) + " usable of " +
+                std::to_string(cps.requested) + " requested (" + std::to_string(with_target) +
+                " poses with GNSS, std-dev threshold " +
+                std::to_string(options.control_points.stddev_threshold) +
+                " m); at least 4 are needed");
+  }
+  refineControlPoints(cps, poses, targets, usable, T_enu_map, cuboid, total);
+  return cps;
+}
+
+SheetWithBeside buildSheetWithBeside(const ControlPointSelection& cps, const Trajectory& slam,
+                                     const Trajectory& fused, const Eigen::Isometry3d& T_enu_map,
+                                     const Cuboid& cuboid, const SheetOptions& options,
+                                     const std::vector<bool>& steady) {
+  SheetWithBeside out;
+  out.beside =
+      besidePoints(cps, slam, fused, options.beside_distance, options.above_height, steady);
+  const std::vector<double> arc = arcLength(positionsOf(slam));
+  const double pass_gap = passGap(options);
+  for (int round = 0;; ++round) {
+    const auto through = buildSheet(cps, out.beside, T_enu_map, cuboid);
+    const auto move = fitSheetTargets(*through, cps, out.beside, slam, fused);
+    out.sheet = movedSheet(cps, out.beside, move, T_enu_map, cuboid);
+    const std::vector<std::size_t> bad = foldingPoints(
+        *out.sheet, out.beside, T_enu_map, vertexArcs(*out.sheet, cps, out.beside, arc), pass_gap);
+    if (bad.empty() || round == 3) break;
+    std::vector<PointPair> kept;
+    std::size_t b = 0;
+    for (std::size_t i = 0; i < out.beside.size(); ++i) {
+      if (b < bad.size() && bad[b] == i) {
+        ++b;
+        continue;
+      }
+      kept.push_back(out.beside[i]);
+    }
+    out.folding += bad.size();
+    out.beside.swap(kept);
+  }
+  return out;
+}
+
+SheetWithBeside buildFaithfulSheet(ControlPointSelection& cps, const Trajectory& slam,
+                                   const Trajectory& fused,
+                                   const std::vector<std::optional<GnssPoint>>& targets,
+                                   const std::vector<bool>& usable,
+                                   const Eigen::Isometry3d& T_enu_map, const Cuboid& cuboid,
+                                   const SheetOptions& options, const std::vector<bool>& steady) {
+  const std::vector<double> arc = arcLength(positionsOf(slam));
+  // Added control points keep 5 cm of path from their neighbours: where the car stops, the
+  // last poses lie a few centimetres apart.
+  const double separation = kFaithfulSeparation;
+  std::size_t added = 0;
+  for (int round = 0;; ++round) {
+    SheetWithBeside out =
+        buildSheetWithBeside(cps, slam, fused, T_enu_map, cuboid, options, steady);
+    out.added = added;
+    if (round == kFaithfulRounds) return out;
+    const std::vector<double> deviation = sheetDeviation(*out.sheet, slam, targets, usable);
+    // A break, not the sheet's resolution (which the number of control points asked for sets):
+    // beyond kFaithful and beyond kBreakMedians times the typical deviation.
+    std::vector<double> finite;
+    for (double d : deviation) {
+      if (std::isfinite(d)) finite.push_back(d);
+    }
+    if (finite.empty()) return out;
+    const double least = std::max(kFaithful, kBreakMedians * median(finite));
+    const auto picks = pickRefinements(cps, deviation, arc, separation, cps.points.size(), least);
+    if (picks.empty()) return out;
+    addControlPoints(cps, picks, slam, targets);
+    added += picks.size();
+  }
+}
+
+}  // namespace flexcloud
