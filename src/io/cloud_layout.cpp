@@ -5,6 +5,16 @@
 
 namespace flexcloud {
 
+pcl::PCLPointField pointField(const std::string& name, std::uint32_t offset,
+                              std::uint8_t datatype) {
+  pcl::PCLPointField f;
+  f.name = name;
+  f.offset = offset;
+  f.datatype = datatype;
+  f.count = 1;
+  return f;
+}
+
 XyzLayout xyzLayout(const pcl::PCLPointCloud2& cloud, const std::string& name) {
   return xyzLayout(cloud.fields, cloud.point_step,
                    static_cast<std::size_t>(cloud.width) * cloud.height, cloud.data.size(), name);

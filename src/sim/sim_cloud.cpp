@@ -2,17 +2,10 @@
 
 #include <cstring>
 
+#include "flexcloud/io/cloud_layout.h"
+
 namespace flexcloud::sim {
 namespace {
-
-pcl::PCLPointField field(const std::string& name, std::uint32_t offset, std::uint8_t type) {
-  pcl::PCLPointField f;
-  f.name = name;
-  f.offset = offset;
-  f.datatype = type;
-  f.count = 1;
-  return f;
-}
 
 template <typename T>
 void put(std::uint8_t* dst, T v) {
@@ -24,12 +17,12 @@ pcl::PCLPointCloud2 build(const SimMap& map, bool truth) {
   const std::uint32_t xyz = truth ? 8 : 4;
   const std::uint32_t base = 3 * xyz;
   pcl::PCLPointCloud2 c;
-  c.fields = {field("x", 0, truth ? F::FLOAT64 : F::FLOAT32),
-              field("y", xyz, truth ? F::FLOAT64 : F::FLOAT32),
-              field("z", 2 * xyz, truth ? F::FLOAT64 : F::FLOAT32),
-              field("intensity", base, F::FLOAT32),
-              field("ring", base + 4, F::UINT16),
-              field("label", base + 8, F::UINT32)};
+  c.fields = {pointField("x", 0, truth ? F::FLOAT64 : F::FLOAT32),
+              pointField("y", xyz, truth ? F::FLOAT64 : F::FLOAT32),
+              pointField("z", 2 * xyz, truth ? F::FLOAT64 : F::FLOAT32),
+              pointField("intensity", base, F::FLOAT32),
+              pointField("ring", base + 4, F::UINT16),
+              pointField("label", base + 8, F::UINT32)};
   c.point_step = base + 12;
   c.height = 1;
   c.width = static_cast<std::uint32_t>(map.slam.size());

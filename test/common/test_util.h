@@ -45,12 +45,7 @@ inline pcl::PCLPointCloud2 packedCloud(
   pcl::PCLPointCloud2 c;
   std::uint32_t offset = 0;
   for (const auto& [name, type] : fields) {
-    pcl::PCLPointField f;
-    f.name = name;
-    f.offset = offset;
-    f.datatype = type;
-    f.count = 1;
-    c.fields.push_back(f);
+    c.fields.push_back(pointField(name, offset, type));
     offset += static_cast<std::uint32_t>(pcl::getFieldSize(type));
   }
   c.point_step = offset;

@@ -15,29 +15,20 @@ namespace {
 
 using F = pcl::PCLPointField;
 
-pcl::PCLPointField field(const std::string& n, std::uint32_t off, std::uint8_t type) {
-  pcl::PCLPointField f;
-  f.name = n;
-  f.offset = off;
-  f.datatype = type;
-  f.count = 1;
-  return f;
-}
-
 /// A cloud with the fields a real map carries: rgb, intensity, ring, label, a double time,
 /// fields before xyz, and xyz of the given type. Organized as rows x cols.
 pcl::PCLPointCloud2 richCloud(std::uint32_t rows, std::uint32_t cols, bool double_xyz) {
   pcl::PCLPointCloud2 c;
   const std::uint32_t s = double_xyz ? 8 : 4;
   const std::uint8_t t = double_xyz ? F::FLOAT64 : F::FLOAT32;
-  c.fields = {field("time", 0, F::FLOAT64),
-              field("x", 8, t),
-              field("y", 8 + s, t),
-              field("z", 8 + 2 * s, t),
-              field("rgb", 8 + 3 * s, F::FLOAT32),
-              field("intensity", 12 + 3 * s, F::FLOAT32),
-              field("ring", 16 + 3 * s, F::UINT16),
-              field("label", 20 + 3 * s, F::UINT32)};
+  c.fields = {pointField("time", 0, F::FLOAT64),
+              pointField("x", 8, t),
+              pointField("y", 8 + s, t),
+              pointField("z", 8 + 2 * s, t),
+              pointField("rgb", 8 + 3 * s, F::FLOAT32),
+              pointField("intensity", 12 + 3 * s, F::FLOAT32),
+              pointField("ring", 16 + 3 * s, F::UINT16),
+              pointField("label", 20 + 3 * s, F::UINT32)};
   c.point_step = 24 + 3 * s;
   c.height = rows;
   c.width = cols;

@@ -10,6 +10,7 @@
 #include <random>
 #include <unordered_set>
 
+#include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/io/pcd_compressed.h"
 #include "flexcloud/io/pcd_io.h"
 #include "flexcloud/types.h"
@@ -118,12 +119,7 @@ TEST(PcdCompressedReader, ChunksEqualPclsWholeRead) {
                                 pcl::PCLPointField::UINT16};
   const std::uint32_t offsets[] = {0, 4, 8, 16, 20};
   for (int i = 0; i < 5; ++i) {
-    pcl::PCLPointField f;
-    f.name = names[i];
-    f.offset = offsets[i];
-    f.datatype = types[i];
-    f.count = 1;
-    cloud.fields.push_back(f);
+    cloud.fields.push_back(pointField(names[i], offsets[i], types[i]));
   }
   cloud.point_step = 22;
   cloud.width = 123457;
