@@ -231,14 +231,11 @@ std::string yamlComment(const ParamSpec& s) {
 }  // namespace
 
 std::string parametersYaml() {
+  // What the file is for, and the command that writes it.
   std::string out =
-      "# flexcloud parameters, generated from the parameter table (src/core/params.cpp,\n"
-      "# src/ros/node_params.cpp) by `scripts/env.sh rosrun flexcloud flexcloud_parameters --yaml\n"
-      "# > config/georeference.yaml`; a test checks that they agree. The offline tool reads it "
-      "with\n"
-      "# --config, the ROS node loads it as rosparams (launch/georeference.launch). Every value "
-      "is\n"
-      "# the default; ranges: doc/PARAMETERS.md.\n";
+      "# flexcloud's parameters at their defaults (ranges: doc/PARAMETERS.md), for --config and\n"
+      "# the node's rosparams. Made from the parameter table by `scripts/env.sh rosrun flexcloud\n"
+      "# flexcloud_parameters --yaml > config/georeference.yaml`; a test checks they agree.\n";
   for (const auto& row : nodeParamTable().rows()) {
     const ParamSpec& s = row.spec;
     const auto heading = yamlHeadings().find(s.name);
