@@ -138,9 +138,20 @@ build_tsan_workspace() {
       georeference_node flexcloud_ros_tests >&2)
 }
 
+# record_exit RC NAME DIR LOG: a run that exited non-zero without a failure in its result files
+# (it crashed, or could not start) is recorded as one failed case, so it cannot pass unseen.
+record_exit() {
+  [ "$1" -eq 0 ] && return 0
+  mkdir -p "$3"
+  grep -qs -e "<failure" -e "<error" "$3"/*.xml && return 0
+  tail -40 "$4" >&2
+  printf '<testsuite><testcase classname="%s" name="exit"><failure message="exit %s"/></testcase></testsuite>\n' \
+    "$2" "$1" > "$3/$2-exit.xml"
+}
+
 # Runs test/ros/races.test with the node and the test built by build_tsan_workspace; writes its
 # JUnit files into $1, and turns the reports on flexcloud's own code into failed cases
-# (scripts/tsan_reports.py; the whole reports stay in $1/report.PID). record_exit: test.sh's.
+# (scripts/tsan_reports.py; the whole reports stay in $1/report.PID).
 run_tsan_races() {
   local results="$1"
   mkdir -p "${results}"

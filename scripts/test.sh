@@ -23,16 +23,6 @@ case "${1:-}" in
 esac
 
 fail() { log "$1"; echo "0 passed, 1 failed"; exit 1; }
-# record_exit RC NAME DIR LOG: a run that exited non-zero without a failure in its result files
-# (it crashed, or could not start) is recorded as one failed case, so it cannot pass unseen.
-record_exit() {
-  [ "$1" -eq 0 ] && return 0
-  mkdir -p "$3"
-  grep -qs -e "<failure" -e "<error" "$3"/*.xml && return 0
-  tail -40 "$4" >&2
-  printf '<testsuite><testcase classname="%s" name="exit"><failure message="exit %s"/></testcase></testsuite>\n' \
-    "$2" "$1" > "$3/$2-exit.xml"
-}
 install_deps || fail "installing the dependencies failed"
 # Results, logs and any fuzz finding stay in out/test_results (git-ignored) until the next run.
 results="${FLEXCLOUD_ROOT}/out/test_results"

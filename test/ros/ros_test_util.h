@@ -9,15 +9,44 @@
 #include <visualization_msgs/MarkerArray.h>
 
 #include <functional>
+#include <initializer_list>
 
 #include "flexcloud/Georeference.h"
 #include "flexcloud/Result.h"
 #include "flexcloud/io/cloud_layout.h"
+#include "flexcloud/ros/conversions.h"
+#include "flexcloud/sim/drive_simulator.h"
 #include "flexcloud/warp/cloud_warp.h"
 
 namespace flexcloud::test {
 
 using Cloud = sensor_msgs::PointCloud2;
+
+/// True once every publisher has a subscriber (the node is listening), false after `timeout` s.
+inline bool subscribed(std::initializer_list<const ros::Publisher*> publishers, double timeout) {
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout);
+  const auto all = [&] {
+    for (const auto* p : publishers) {
+      if (p->getNumSubscribers() == 0) return false;
+    }
+    return true;
+  };
+  while (!all() && ros::WallTime::now() < end) ros::WallDuration(0.05).sleep();
+  return all();
+}
+
+/// Publishes every pose (map -> base_link) and fix (frame gnss) of `d`, a short pause every
+/// `batch` messages; returns how many poses went out.
+inline std::size_t publishDrive(const sim::SimDrive& d, ros::Publisher& odom, ros::Publisher& fix,
+                                std::size_t batch) {
+  std::size_t sent = 0;
+  for (std::size_t i = 0; i < d.slam.size(); ++i) {
+    odom.publish(ros_conv::toOdometry(d.slam[i], "map", "base_link"));
+    if (i < d.fixes.size()) fix.publish(ros_conv::toNavSatFix(d.fixes[i], "gnss"));
+    if (++sent % batch == 0) ros::WallDuration(0.01).sleep();
+  }
+  return sent;
+}
 
 /// Calls /NODE/georeference (waiting for the service first).
 inline flexcloud::Georeference::Response call(int control_points = 0, double stddev_threshold = 0.0,

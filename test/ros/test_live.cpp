@@ -55,13 +55,7 @@ class Live : public ::testing::Test {
     map_pub_ = nh.advertise<Cloud>("/map", 1, true);
     ros::Publisher& fix = fix_pub_;
     ros::Publisher& odom = odom_pub_;
-    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(20.0);
-    while ((fix.getNumSubscribers() == 0 || odom.getNumSubscribers() == 0 ||
-            map_pub_.getNumSubscribers() == 0) &&
-           ros::WallTime::now() < end) {
-      ros::WallDuration(0.05).sleep();
-    }
-    ASSERT_GT(fix.getNumSubscribers(), 0u);
+    ASSERT_TRUE(subscribed({&fix, &odom, &map_pub_}, 20.0));
     Cloud map;
     ros_conv::toCloudMsg(sim::slamCloud(drive_->map), "map", map);
     map_pub_.publish(map);

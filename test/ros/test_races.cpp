@@ -135,21 +135,11 @@ void convertUntil(const std::atomic<bool>& done, const geometry_msgs::Point& p, 
 }
 
 /// Waits for the node's subscribers, then publishes the map (latched) and the whole drive.
-void publishDrive(const sim::SimDrive& d, const Cloud& map, ros::Publisher& fix,
-                  ros::Publisher& odom, ros::Publisher& map_pub) {
-  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(60.0);
-  while ((fix.getNumSubscribers() == 0 || odom.getNumSubscribers() == 0 ||
-          map_pub.getNumSubscribers() == 0) &&
-         ros::WallTime::now() < end) {
-    ros::WallDuration(0.05).sleep();
-  }
-  ASSERT_GT(map_pub.getNumSubscribers(), 0u);
+void publishMapAndDrive(const sim::SimDrive& d, const Cloud& map, ros::Publisher& fix,
+                        ros::Publisher& odom, ros::Publisher& map_pub) {
+  ASSERT_TRUE(subscribed({&fix, &odom, &map_pub}, 60.0));
   map_pub.publish(map);
-  for (std::size_t i = 0; i < d.slam.size(); ++i) {
-    odom.publish(ros_conv::toOdometry(d.slam[i], "map", "base_link"));
-    if (i < d.fixes.size()) fix.publish(ros_conv::toNavSatFix(d.fixes[i], "gnss"));
-    if (i % 100 == 99) ros::WallDuration(0.01).sleep();
-  }
+  publishDrive(d, odom, fix, 100);
 }
 
 /// ~georeference until the result holds all `poses` (the drive has arrived) and a map.
@@ -187,7 +177,7 @@ TEST(Races, CallsReconfiguresSavesResetsAndNewMapsAtOnce) {
   ros::Publisher fix = nh.advertise<sensor_msgs::NavSatFix>("/fix", 10000);
   ros::Publisher odom = nh.advertise<nav_msgs::Odometry>("/odom", 10000);
   ros::Publisher map_pub = nh.advertise<Cloud>("/map", 1, true);
-  publishDrive(d, map, fix, odom, map_pub);
+  publishMapAndDrive(d, map, fix, odom, map_pub);
   const auto first = firstFullResult(d.slam.size());
   ASSERT_TRUE(first.success) << first.message;
   ASSERT_EQ(first.poses, d.slam.size());
@@ -222,7 +212,7 @@ TEST(Races, CallsReconfiguresSavesResetsAndNewMapsAtOnce) {
 
   // The node still works, and the last setting wins: the drive again, then a reconfigure
   // starts a recompute with its values.
-  publishDrive(d, map, fix, odom, map_pub);
+  publishMapAndDrive(d, map, fix, odom, map_pub);
   ASSERT_EQ(firstFullResult(d.slam.size()).poses, d.slam.size());
   const ros::Time after = ros::Time::now();
   config.control_points = 70;

@@ -85,18 +85,6 @@ void tuneUntil(const std::atomic<bool>& done, flexcloud::GeoreferenceConfig conf
   }
 }
 
-/// Publishes every pose and fix of `d`, a short pause every `batch` messages.
-std::size_t publishDrive(const sim::SimDrive& d, ros::Publisher& odom, ros::Publisher& fix,
-                         std::size_t batch) {
-  std::size_t sent = 0;
-  for (std::size_t i = 0; i < d.slam.size(); ++i) {
-    odom.publish(ros_conv::toOdometry(d.slam[i], "map", "base_link"));
-    if (i < d.fixes.size()) fix.publish(ros_conv::toNavSatFix(d.fixes[i], "gnss"));
-    if (++sent % batch == 0) ros::WallDuration(0.01).sleep();
-  }
-  return sent;
-}
-
 /// After the flood the node still works: forgotten by ~reset, a drive sent at its pace gives a
 /// full result with the map of the flood's last replacement.
 void aCalmDriveGivesAFullResult(ros::Publisher& odom, ros::Publisher& fix) {
@@ -136,12 +124,7 @@ TEST(Stress, AnHourAt100HzWithCallsReconfiguresAndNewMaps) {
   ros::Publisher fix = nh.advertise<sensor_msgs::NavSatFix>("/fix", 20000);
   ros::Publisher odom = nh.advertise<nav_msgs::Odometry>("/odom", 20000);
   ros::Publisher map_pub = nh.advertise<Cloud>("/map", 1, true);
-  const ros::WallTime wait_end = ros::WallTime::now() + ros::WallDuration(20.0);
-  while ((fix.getNumSubscribers() == 0 || odom.getNumSubscribers() == 0) &&
-         ros::WallTime::now() < wait_end) {
-    ros::WallDuration(0.05).sleep();
-  }
-  ASSERT_GT(odom.getNumSubscribers(), 0u);
+  ASSERT_TRUE(subscribed({&fix, &odom}, 20.0));
   ASSERT_TRUE(ros::service::waitForService("/flexcloud/georeference", ros::Duration(20.0)));
   dynamic_reconfigure::Client<flexcloud::GeoreferenceConfig> reconfigure("/flexcloud");
   flexcloud::GeoreferenceConfig config;
