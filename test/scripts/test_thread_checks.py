@@ -28,15 +28,23 @@ int main() { Node n; return static_cast<int>(n.locked().size() + n.unlocked().si
 """
 
 # One node-like race: a worker writes a parameter under the lock, a service reads it without.
+# A relaxed flag (no ordering for ThreadSanitizer) makes the read come first on every run.
 RACE = """
+#include <atomic>
 #include <mutex>
 #include <thread>
 struct Params { int control_points = 200; double threshold = 0.1; };
 std::mutex mutex_;
 Params params_;
+std::atomic<bool> read_done{false};
 int main() {
-  std::thread reconfigure([] { std::lock_guard<std::mutex> l(mutex_); params_.control_points = 40; });
+  std::thread reconfigure([] {
+    while (!read_done.load(std::memory_order_relaxed)) std::this_thread::yield();
+    std::lock_guard<std::mutex> l(mutex_);
+    params_.control_points = 40;
+  });
   const Params copy = params_;
+  read_done.store(true, std::memory_order_relaxed);
   reconfigure.join();
   return copy.control_points > 1000;
 }
@@ -97,7 +105,7 @@ class ThreadChecks(unittest.TestCase):
             self.assertEqual(tsan_reports.main(str(reports)), 1)
             junit = (reports / "tsan-reports.xml").read_text()
             self.assertEqual(junit.count("<failure"), 1)
-            self.assertIn("race.cpp:9", junit)  # the unlocked read of params_
+            self.assertIn("race.cpp:15", junit)  # the unlocked read of params_
             self.assertIn("1 reports inside uninstrumented libraries ignored", junit)
             (reports / next(p.name for p in reports.glob("report.*") if p.name != "report.1")
              ).unlink()
