@@ -205,7 +205,8 @@ class Fusion {
         options_(options),
         cancel_(cancel),
         folds_(folds),
-        noise_(noiseOf(options, 1)) {}
+        noise_(noiseOf(options, 1)),
+        solver_threads_(threadCount(options.threads)) {}
 
   FusionResult run(const Eigen::Isometry3d& T_enu_map) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -226,13 +227,13 @@ class Fusion {
     makeKeyframes(start_);
     prepareFixes(kUnknownStdStart, kUnknownStdStart);
     estimateClassScales();
-    loss_ = std::make_unique<GemanMcClure>(options_.outlier_threshold);
+    loss_ = std::make_shared<GemanMcClure>(options_.outlier_threshold);
     solveStages();
     adaptSlamNoise();
     restamp();
-    polish();
+    const auto full = polish();
+    measureAtSolution(*full);
     collect();
-    leaveOut();
     out_.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return out_;
   }
@@ -501,51 +502,54 @@ class Fusion {
 
   bool heldOut(const Fix& f) const { return held_out_ >= 0 && (*holdout_)[f.input] == held_out_; }
 
-  /// Every fold of `fold` (per input fix; -1: never held out) solved again without its fixes
-  /// from the current solution (the robust loss keeps its scale, the other fixes their
-  /// weights), and each held-out fix's residual there (the fused antenna less the fix, m; NaN
-  /// for the others). The current solution is restored.
-  std::vector<Vec3> foldResiduals(const std::vector<int>& fold, int folds) {
-    std::vector<Vec3> out(gnss_.size(), Vec3::Constant(std::numeric_limits<double>::quiet_NaN()));
-    const std::vector<Keyframe> full = keyframes_;
-    const double full_dt = dt_;
-    holdout_ = &fold;
-    for (int k = 0; k < folds; ++k) {
-      held_out_ = k;
-      std::size_t kept = 0, held = 0;
-      for (const auto& f : fixes_) (heldOut(f) ? held : kept) += 1;
-      if (held == 0 || kept < 3) continue;
-      {
-        const auto problem = makeProblem(1);
-        solveAt(*problem, 0.0, kLeaveOutIterations);
-      }
-      for (const auto& f : fixes_) {
-        if (heldOut(f)) out[f.input] = residualOf(f);
-      }
-      keyframes_ = full;  // the same storage: the parameter blocks stay where they were
-      dt_ = full_dt;
-    }
-    held_out_ = -1;
-    holdout_ = nullptr;
-    return out;
+  /// A copy of the fusion at its current solution, for a solve of its own beside this one:
+  /// its factors weighted by its own fixes, its Ceres solves on one thread.
+  Fusion copyForSolve() const {
+    Fusion c(*this);
+    for (Fix& f : c.fixes_) f.factor.sigma = &f.sigma;
+    c.solver_threads_ = 1;
+    return c;
   }
 
-  /// The leave-out: every fold solved again without its fixes, from the full solution (the
-  /// robust loss keeps its scale, the other fixes their weights), and each held-out fix's
-  /// distance from the antenna that solve puts at its instant. The full solution is restored.
-  void leaveOut() {
+  /// Fold `k` of the leave-out solved again without its fixes from the current solution (the
+  /// robust loss keeps its scale, the other fixes their weights), on a copy: each held-out
+  /// fix's distance from the antenna that solve puts at its instant, into
+  /// out_.leave_out_deviation.
+  void leaveOutFold(int k) {
+    Fusion fold = copyForSolve();
+    fold.holdout_ = &folds_.fold;
+    fold.held_out_ = k;
+    std::size_t kept = 0, held = 0;
+    for (const auto& f : fold.fixes_) (fold.heldOut(f) ? held : kept) += 1;
+    if (held == 0 || kept < 3) return;
+    fold.solveAt(*fold.makeProblem(1), 0.0, kLeaveOutIterations);
+    for (const auto& f : fold.fixes_) {
+      if (fold.heldOut(f)) out_.leave_out_deviation[f.input] = fold.residualOf(f).norm();
+    }
+  }
+
+  /// What is measured at the solution and leaves it as it is, side by side: the offset's
+  /// 1-sigma and the leave-out folds (each fold solves a copy).
+  void measureAtSolution(ceres::Problem& full) {
     out_.leave_out_deviation.assign(gnss_.size(), std::numeric_limits<double>::quiet_NaN());
-    if (folds_.folds < 2 || folds_.fold.size() != gnss_.size()) return;
-    const std::vector<Vec3> r = foldResiduals(folds_.fold, folds_.folds);
-    for (std::size_t j = 0; j < r.size(); ++j) out_.leave_out_deviation[j] = r[j].norm();
+    const bool folds = folds_.folds >= 2 && folds_.fold.size() == gnss_.size();
+    const std::size_t tasks = 1 + (folds ? static_cast<std::size_t>(folds_.folds) : 0);
+    parallelRanges(tasks, tasks, options_.threads, [&](std::size_t task, std::size_t, std::size_t) {
+      if (task > 0) {
+        leaveOutFold(static_cast<int>(task) - 1);
+      } else {
+        offset_sigma_ = clock_.observable ? offsetSigma(full) : kInf;
+      }
+    });
   }
 
   /// The last solve, to the fine tolerance: the heading of the fused trajectory, which the
-  /// points beside it carry into the map, converges last.
-  void polish() {
-    const auto full = makeProblem(1);
+  /// points beside it carry into the map, converges last. The problem is kept for what is
+  /// measured at the solution.
+  std::unique_ptr<ceres::Problem> polish() {
+    auto full = makeProblem(1);
     solveAt(*full, 0.0, kPolishIterations, kFinalTolerance);
-    offset_sigma_ = clock_.observable ? offsetSigma(*full) : kInf;
+    return full;
   }
 
   /// 1-sigma of the clock offset at the solution, every other state free: the inverse of the
@@ -642,7 +646,7 @@ class Fusion {
     ceres::Solver::Options o;
     o.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
     o.max_num_iterations = iterations;
-    o.num_threads = threadCount(options_.threads);
+    o.num_threads = solver_threads_;
     o.logging_type = ceres::SILENT;
     o.function_tolerance = tolerance;
     // Every stage starts near its solution (the previous stage's), where the problem is close
@@ -827,7 +831,8 @@ class Fusion {
   double roughness_ = 0.0;
   double class_scale_[kClasses] = {1.0, 1.0, 1.0};  ///< factors on the reported std-devs
 
-  std::unique_ptr<GemanMcClure> loss_;
+  std::shared_ptr<GemanMcClure> loss_;  ///< shared by the copies, which only read it
+  int solver_threads_;                  ///< Ceres's threads per solve
   ceres::EigenQuaternionManifold quaternion_;
   FusionResult out_;
 };
