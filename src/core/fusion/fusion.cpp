@@ -42,10 +42,11 @@ constexpr int kRestampRounds = 2;
 // iterations each instead of up to 21), fine for the last.
 constexpr double kStageTolerance = 1e-3;
 constexpr double kFinalTolerance = 1e-6;
-// Iterations of the last solve: on a2rl it creeps on for 26 at 1e-6 to a cost 0.4 % lower; 10
-// give the simulated drives' maps to the millimetre (open_rtk seed 2: 0.054 m after the
-// stages alone, 0.036 after 8 iterations or 26).
-constexpr int kPolishIterations = 10;
+// Iterations of the last solve, from the stages' solution: on a2rl it creeps on for 26 at 1e-6
+// to a cost 0.4 % lower. 4 give the simulated drives' maps and trajectories and both real
+// drives' leave-out within a centimetre of 10 iterations (scripts/accuracy.sh; every clock
+// within 0.3 ms) at 0.06 s less on a2rl.
+constexpr int kPolishIterations = 4;
 // Iterations of a leave-out fold's solve, from the full solution: removing a fold's fixes moves
 // the solution near them only, and Gauss-Newton's first steps take most of that.
 constexpr int kLeaveOutIterations = 4;
