@@ -7,6 +7,7 @@
 
 #include "flexcloud/input/trajectory.h"
 #include "flexcloud/metrics.h"
+#include "parallel.h"
 
 namespace flexcloud {
 namespace {
@@ -78,15 +79,17 @@ DriveInput withoutFold(const DriveInput& input, const Params& params,
 }
 
 /// The held-out fixes' distances from the GNSS control points' trajectory of the run without
-/// their fold (NaN where a fold's run failed or its trajectory does not reach).
+/// their fold (NaN where a fold's run failed or its trajectory does not reach). The folds run
+/// side by side; a failed fold's message goes into `note`.
 std::vector<double> gnssLeaveOut(const DriveInput& input, const Params& params,
                                  const LeaveOutFolds& folds, const CancelToken& cancel,
                                  const GeoreferenceResult& r, std::string& note) {
   const std::vector<GnssPoint>& pts = r.gnss.points;
   std::vector<double> out(pts.size(), std::numeric_limits<double>::quiet_NaN());
+  std::vector<std::string> failed(static_cast<std::size_t>(std::max(0, folds.folds)));
   const Params p = gnssParams(params, r);
   const Eigen::Vector3d lever(params.lever_arm_x, params.lever_arm_y, params.lever_arm_z);
-  for (int k = 0; k < folds.folds; ++k) {
+  const auto runFold = [&](int k) {
     cancel.check("leave-out");
     std::vector<GnssPoint> held;
     std::vector<std::size_t> index;
@@ -95,17 +98,23 @@ std::vector<double> gnssLeaveOut(const DriveInput& input, const Params& params,
       held.push_back(pts[j]);
       index.push_back(j);
     }
-    if (held.empty()) continue;
+    if (held.empty()) return;
     try {
       const GeoreferenceResult g =
           georeference(withoutFold(input, params, pts, folds, k), p, cancel);
       const std::vector<double> d =
           deviationsAtFixes(g.rubbersheet, held, r.fusion->time_offset, lever);
-      for (std::size_t i = 0; i < d.size(); ++i) out[index[i]] = d[i];
+      for (std::size_t i = 0; i < d.size(); ++i) out[index[i]] = d[i];  // this fold's fixes only
     } catch (const Error& e) {
       cancel.check("leave-out");  // a cancelled run is no failed fold
-      note = std::string("fold ") + std::to_string(k) + ": " + e.what();
+      failed[static_cast<std::size_t>(k)] =
+          std::string("fold ") + std::to_string(k) + ": " + e.what();
     }
+  };
+  parallelRanges(failed.size(), failed.size(), params.threads,
+                 [&](std::size_t k, std::size_t, std::size_t) { runFold(static_cast<int>(k)); });
+  for (const auto& f : failed) {
+    if (!f.empty()) note = f;
   }
   return out;
 }
