@@ -111,6 +111,7 @@ std::vector<double> gnssLeaveOut(const DriveInput& input, const Params& params,
           std::string("fold ") + std::to_string(k) + ": " + e.what();
     }
   };
+  if (failed.empty()) return out;
   parallelRanges(failed.size(), failed.size(), params.threads,
                  [&](std::size_t k, std::size_t, std::size_t) { runFold(static_cast<int>(k)); });
   for (const auto& f : failed) {
