@@ -3,9 +3,12 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <optional>
+#include <utility>
+#include <vector>
 
 #include "flexcloud/fusion/clock_offset.h"
 #include "flexcloud/georeference.h"
@@ -84,6 +87,15 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
+/// The positions of the drive's GNSS and of its SLAM poses, row by row.
+std::pair<std::vector<Eigen::Vector3d>, std::vector<Eigen::Vector3d>> tracksOf(
+    const DriveInput& in) {
+  std::vector<Eigen::Vector3d> gnss, slam;
+  for (const auto& g : in.local_gnss) gnss.push_back(g.position);
+  for (const auto& p : in.poses) slam.push_back(p.position);
+  return {gnss, slam};
+}
+
 /// The GNSS of the disputed stretch is far smoother than anywhere else on the drive, while the
 /// SLAM's is not: the mark of positions interpolated through an outage (the file's GNSS was
 /// resampled at the pose stamps by its publisher), not of fixes measured there.
@@ -93,9 +105,7 @@ TEST(A2rl, TheDisputedGnssStretchIsSmootherThanMeasuredFixes) {
     GTEST_SKIP() << "a2rl data not found (../shared/data/a2rl beside the repository, or set "
                     "FLEXCLOUD_DATA_DIR); skipped";
   const DriveInput in = load(dir);
-  std::vector<Eigen::Vector3d> gnss, slam;
-  for (const auto& g : in.local_gnss) gnss.push_back(g.position);
-  for (const auto& p : in.poses) slam.push_back(p.position);
+  const auto [gnss, slam] = tracksOf(in);
   std::vector<double> gnss_in, gnss_out, slam_in, slam_out;
   for (std::size_t i = 1; i + 2 < gnss.size(); ++i) {
     const bool disputed = i >= kDisputedBegin && i < kDisputedEnd;
@@ -127,9 +137,7 @@ TEST(A2rl, TheDisputedGnssStretchHasASpeedTheSlamDoesNot) {
     GTEST_SKIP() << "a2rl data not found (../shared/data/a2rl beside the repository, or set "
                     "FLEXCLOUD_DATA_DIR); skipped";
   const DriveInput in = load(dir);
-  std::vector<Eigen::Vector3d> gnss, slam;
-  for (const auto& g : in.local_gnss) gnss.push_back(g.position);
-  for (const auto& p : in.poses) slam.push_back(p.position);
+  const auto [gnss, slam] = tracksOf(in);
   std::vector<double> apart_in, apart_out, slam_in, gnss_in;
   double behind = 0.0, most_behind = 0.0;
   for (std::size_t i = 0; i + 1 < gnss.size(); ++i) {
