@@ -361,14 +361,15 @@ TEST(A2rl, LeaveOutDeviation) {
   EXPECT_LT(gdo.max, go.max);
 
   // Outside the disputed stretch the defaults beat the published method's way (0.148 / 0.640
-  // m) in MAE; their MAX (0.707 m) is 10 % above its (doc/ACCURACY.md, the real drives).
-  EXPECT_LT(o.mae, 0.135);  // 0.126 m
+  // m) in MAE and MAX (0.102 / 0.569 m; doc/ACCURACY.md, the real drives). Their MAX was 0.707
+  // m while the SLAM was held to its usual noise where it jitters (poses 740-770).
+  EXPECT_LT(o.mae, 0.115);  // 0.102 m
   EXPECT_LT(o.mae, go.mae);
-  EXPECT_LT(o.max, 0.75);
-  EXPECT_LT(ft.mae, 0.105);  // 0.095 m
+  EXPECT_LT(o.max, go.max);  // 0.569 m
+  EXPECT_LT(ft.mae, 0.075);  // 0.063 m
   // The stops no longer stand out (without the offset the fusion's largest deviations, 0.9 m,
   // lay within 8 poses of them).
-  EXPECT_LT(errorStats(h.near_stops).max, 0.55);  // 0.452 m
+  EXPECT_LT(errorStats(h.near_stops).max, 0.55);  // 0.415 m
 
   // The offset is what moved them: the fusion without it (max_time_offset 0).
   Params fixed = forThisData(true);
