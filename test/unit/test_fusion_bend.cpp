@@ -91,8 +91,8 @@ Outcome fuse(bool jitter) {
 
 TEST(FusionBend, TheSlamBendsToTheFixesWhereItJitters) {
   const Outcome o = fuse(true);
-  EXPECT_LT(o.worst_h, 0.15);
-  EXPECT_LT(o.rejected, 5u);
+  EXPECT_LT(o.worst_h, 0.15);  // 0.049-0.054 m (held to its usual noise: 0.525 m)
+  EXPECT_LT(o.rejected, 12u);  // 4-5 (held: 38)
 }
 
 TEST(FusionBend, ASmoothSlamKeepsItsShapeAgainstTheFixes) {

@@ -101,7 +101,15 @@ TEST(Gnss, DefaultStdDevKeepsFixesWithUnknownCovariance) {
   const PreparedGnss g = prepareGeodeticGnss(v, gnssOptions(p));
   EXPECT_EQ(g.points.size(), v.size());
   EXPECT_DOUBLE_EQ(g.points[0].std_dev.x(), 0.5);
-  EXPECT_THROW(prepareGeodeticGnss(v, gnssOptions(legacy())), Error);  // all dropped: a clear error
+  try {  // all dropped: a clear error that says what keeps them
+    prepareGeodeticGnss(v, gnssOptions(legacy()));
+    FAIL();
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("unknown covariance " + std::to_string(v.size())), std::string::npos)
+        << what;
+    EXPECT_NE(what.find("need default_std_dev, or fusion true"), std::string::npos) << what;
+  }
 }
 
 TEST(Gnss, WithTheFusionNothingIsDroppedForJumpsOrUnknownCovariance) {

@@ -118,8 +118,14 @@ std::string dropSummary(const GnssDropCounts& d) {
 
 void requireSome(const PreparedGnss& out) {
   if (out.points.empty()) {
+    // Fixes without a covariance are dropped only without the fusion: say what keeps them.
+    const std::string hint =
+        out.dropped.unknown_covariance > 0
+            ? "; fixes without a covariance need default_std_dev, or fusion true, which "
+              "estimates their std-dev"
+            : "";
     throw Error("GNSS: none of the " + std::to_string(out.received) + " fixes is usable (" +
-                dropSummary(out.dropped) + ")");
+                dropSummary(out.dropped) + ")" + hint);
   }
 }
 
