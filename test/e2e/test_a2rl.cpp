@@ -34,6 +34,19 @@ constexpr Published kPublished[] = {{10, 2.84, 2.36, 17.61},
 
 DriveInput load(const std::string& dir) { return study::loadRealDrive(dir); }
 
+/// Every test reads the drive; without it they are skipped with a message.
+class A2rl : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const std::string dir = findData();
+    if (dir.empty())
+      GTEST_SKIP() << "a2rl data not found (../shared/data/a2rl beside the repository, or set "
+                      "FLEXCLOUD_DATA_DIR); skipped";
+    drive_ = load(dir);
+  }
+  DriveInput drive_;
+};
+
 /// The file gives no std-devs (0): the fusion estimates them; the GNSS control points take the
 /// publisher's word (RTK, 1 cm). Everything else is the defaults, which estimate the clock
 /// offset between the SLAM's stamps and the GNSS's (TheSlamStampsLagTheGnssByATenthOfASecond).
@@ -46,12 +59,8 @@ Params forThisData(bool fusion) {
 
 /// With the GNSS at the poses as control points (the published method's way, fusion off),
 /// flexcloud's spread and refinement beat the published figures on every measure.
-TEST(A2rl, BeatsThePublishedMethodAtEveryControlPointCount) {
-  const std::string dir = findData();
-  if (dir.empty())
-    GTEST_SKIP() << "a2rl data not found (../shared/data/a2rl beside the repository, or set "
-                    "FLEXCLOUD_DATA_DIR); skipped";
-  const DriveInput in = load(dir);
+TEST_F(A2rl, BeatsThePublishedMethodAtEveryControlPointCount) {
+  const DriveInput& in = drive_;
   ASSERT_EQ(in.poses.size(), 2386u);
   for (const Published& pub : kPublished) {
     Params p = forThisData(false);
@@ -99,12 +108,8 @@ std::pair<std::vector<Eigen::Vector3d>, std::vector<Eigen::Vector3d>> tracksOf(
 /// The GNSS of the disputed stretch is far smoother than anywhere else on the drive, while the
 /// SLAM's is not: the mark of positions interpolated through an outage (the file's GNSS was
 /// resampled at the pose stamps by its publisher), not of fixes measured there.
-TEST(A2rl, TheDisputedGnssStretchIsSmootherThanMeasuredFixes) {
-  const std::string dir = findData();
-  if (dir.empty())
-    GTEST_SKIP() << "a2rl data not found (../shared/data/a2rl beside the repository, or set "
-                    "FLEXCLOUD_DATA_DIR); skipped";
-  const DriveInput in = load(dir);
+TEST_F(A2rl, TheDisputedGnssStretchIsSmootherThanMeasuredFixes) {
+  const DriveInput& in = drive_;
   const auto [gnss, slam] = tracksOf(in);
   std::vector<double> gnss_in, gnss_out, slam_in, slam_out;
   for (std::size_t i = 1; i + 2 < gnss.size(); ++i) {
@@ -131,12 +136,8 @@ double stepSpeed(const std::vector<Eigen::Vector3d>& x, const Trajectory& poses,
 /// it had before (4.8-5.6) while the GNSS slows to 3.8 and speeds up to 6.0 m/s, falling up to
 /// 8.7 m behind along the track and catching up. Their speeds part there by 0.77 m/s in the
 /// median against 0.04 elsewhere: the GNSS of the stretch is not what the car did.
-TEST(A2rl, TheDisputedGnssStretchHasASpeedTheSlamDoesNot) {
-  const std::string dir = findData();
-  if (dir.empty())
-    GTEST_SKIP() << "a2rl data not found (../shared/data/a2rl beside the repository, or set "
-                    "FLEXCLOUD_DATA_DIR); skipped";
-  const DriveInput in = load(dir);
+TEST_F(A2rl, TheDisputedGnssStretchHasASpeedTheSlamDoesNot) {
+  const DriveInput& in = drive_;
   const auto [gnss, slam] = tracksOf(in);
   std::vector<double> apart_in, apart_out, slam_in, gnss_in;
   double behind = 0.0, most_behind = 0.0;
@@ -207,12 +208,8 @@ Slope fitSlope(const std::vector<double>& x, const std::vector<double>& y) {
 /// window's mean the car goes there. An offset dt puts the GNSS v dt ahead of the SLAM, less
 /// the window's mean: the slope is dt, the same at every speed, and taking it out halves the
 /// residual. The speed profiles (estimateClockOffset) must agree with it.
-TEST(A2rl, TheSlamStampsLagTheGnssByATenthOfASecond) {
-  const std::string dir = findData();
-  if (dir.empty())
-    GTEST_SKIP() << "a2rl data not found (../shared/data/a2rl beside the repository, or set "
-                    "FLEXCLOUD_DATA_DIR); skipped";
-  const DriveInput in = load(dir);
+TEST_F(A2rl, TheSlamStampsLagTheGnssByATenthOfASecond) {
+  const DriveInput& in = drive_;
   const std::vector<GnssPoint>& g = in.local_gnss;
   constexpr int kHalf = 10;
   constexpr double kBands[] = {0.0, 6.0, 12.0, 1e9};  // m/s
@@ -307,12 +304,8 @@ ErrorStats report(const char* what, const HeldOut& h) {
 /// rubber-sheeted trajectory is compared with it at the fix's own instant. The fusion (defaults)
 /// against the GNSS control points (the published method's way), with and without the clock
 /// offset.
-TEST(A2rl, LeaveOutDeviation) {
-  const std::string dir = findData();
-  if (dir.empty())
-    GTEST_SKIP() << "a2rl data not found (../shared/data/a2rl beside the repository, or set "
-                    "FLEXCLOUD_DATA_DIR); skipped";
-  const DriveInput all = load(dir);
+TEST_F(A2rl, LeaveOutDeviation) {
+  const DriveInput& all = drive_;
   DriveInput in = all;
   in.local_gnss.clear();
   for (std::size_t i = 0; i < all.local_gnss.size(); ++i) {
