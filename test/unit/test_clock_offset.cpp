@@ -7,6 +7,8 @@
 #include <random>
 
 #include "flexcloud/fusion/clock_offset.h"
+#include "flexcloud/fusion/fusion.h"
+#include "flexcloud/params.h"
 
 namespace flexcloud {
 namespace {
@@ -106,6 +108,33 @@ TEST(ClockOffset, NoneBeyondTheRangeAskedFor) {
   EXPECT_FALSE(estimate(d, 0.5).observable);  // the best is the range's edge: not a minimum
   EXPECT_FALSE(estimate(d, 0.0).observable);
   EXPECT_FALSE(estimateClockOffset({}, d.gnss, 1.0).observable);
+}
+
+TEST(ClockOffset, AnOffsetNearTheRangesEdgeIsFound) {
+  // Within 0.1 s of max_offset the cost's curvature, which gives the sigma, reaches past the
+  // range; it is taken there all the same, and what lies beyond is still none.
+  DriveSpec s;
+  s.offset = 0.38;
+  const ClockOffsetEstimate near = estimate(makeDrive(s), 0.4);
+  EXPECT_TRUE(near.observable);
+  EXPECT_NEAR(near.offset, 0.38, 0.01);
+  EXPECT_LT(near.sigma, 0.02);
+  s.offset = -0.45;
+  EXPECT_FALSE(estimate(makeDrive(s), 0.4).observable);
+}
+
+TEST(ClockOffset, TheFusionUsesAnOffsetNearTheRangesEdge) {
+  DriveSpec s;
+  s.offset = 0.38;
+  const Drive d = makeDrive(s);
+  Params params;
+  params.max_time_offset = 0.4;
+  const FusionResult r =
+      fuseTrajectory(d.slam, d.gnss, Eigen::Isometry3d::Identity(), fusionOptions(params));
+  std::printf("offset 0.38, range 0.4: fused %.4f s\n", r.time_offset);
+  EXPECT_TRUE(r.time_offset_estimated);
+  EXPECT_NEAR(r.time_offset, 0.38, 0.005);
+  EXPECT_LE(r.time_offset, 0.4);
 }
 
 }  // namespace

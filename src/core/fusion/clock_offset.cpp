@@ -81,12 +81,15 @@ struct Profiles {
   std::vector<double> gnss;    ///< per sample, NaN where not available
   std::vector<bool> changing;  ///< per sample: the GNSS's speed changes there (informative)
   std::vector<double> slam;    ///< per grid step
-  int reach = 0;               ///< grid steps of the largest offset
+  /// Grid steps either side of zero: the largest offset and kCurvatureSteps more, so that an
+  /// offset near the range's edge has the cost around it for its sigma, and one just beyond
+  /// shows as beyond instead of as the edge.
+  int reach = 0;
 };
 
 Profiles profiles(const Track& slam, const Track& gnss, double max_offset) {
   Profiles out;
-  out.reach = static_cast<int>(std::ceil(max_offset / kStep));
+  out.reach = static_cast<int>(std::ceil(max_offset / kStep)) + kCurvatureSteps;
   const double h = kBaseline;
   const double margin = out.reach * kStep + h;
   const double first = std::max(gnss.t.front(), slam.t.front() + margin);
@@ -177,7 +180,9 @@ ClockOffsetEstimate estimateClockOffset(const Trajectory& poses, const std::vect
   if (best == 0 || best == 2 * p.reach || out.samples < kMinSamples) return out;
   const double curvature = c[best - 1] - 2.0 * c[best] + c[best + 1];
   const double shift = curvature > 0.0 ? 0.5 * (c[best - 1] - c[best + 1]) / curvature : 0.0;
-  out.offset = (best - p.reach + shift) * kStep;
+  const double offset = (best - p.reach + shift) * kStep;
+  if (std::abs(offset) > max_offset) return out;  // beyond the range asked for
+  out.offset = offset;
   out.sigma = offsetSigma(p, scale, c, best);
   out.observable = out.sigma < kObservable;
   return out;
