@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "flexcloud/fusion/clock_offset.h"
 #include "flexcloud/fusion/fusion.h"
 #include "flexcloud/input/gnss.h"
 #include "flexcloud/input/trajectory.h"
@@ -108,9 +109,13 @@ struct GeoreferenceResult {
   Method method = Method::kGnss;
   std::optional<LeaveOutChoice> leave_out;
   /// The clock offset applied to the GNSS: SLAM clock minus GNSS clock, s (gnss_time_offset
-  /// and the fusion's estimate on top of it), and its 1-sigma (NaN where not estimated).
+  /// and the estimate on top of it: the fusion's, or without the fusion the speed profiles'),
+  /// and its 1-sigma (NaN where not estimated).
   double clock_offset = 0.0;
   double clock_offset_sigma = std::numeric_limits<double>::quiet_NaN();
+  /// Without the fusion (and max_time_offset > 0): the speed profiles' estimate of the offset on
+  /// top of gnss_time_offset, applied where it is beyond its noise (clock_offset_sigma finite).
+  std::optional<ClockOffsetEstimate> speed_clock;
   ControlPointSelection control_points;
   std::vector<PointPair> beside;   ///< control points beside and above the trajectory
   std::size_t beside_folding = 0;  ///< beside points left out because they folded the sheet

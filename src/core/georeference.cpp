@@ -379,6 +379,36 @@ void sheetFromGnss(const Params& params, GeoreferenceResult& r) {
   r.sheet = buildSheet(r.control_points, {}, r.T_enu_map, r.cuboid_enu);
 }
 
+/// The fixes a GNSS control point may come from: within the std-dev threshold, outside the
+/// excluded ranges.
+std::vector<GnssPoint> controlPointFixes(const Params& params, const GeoreferenceResult& r) {
+  std::vector<GnssPoint> out;
+  for (const GnssPoint& g : r.gnss.points) {
+    const bool excluded = std::any_of(params.excluded_ranges.begin(), params.excluded_ranges.end(),
+                                      [&](const TimeRange& t) { return t.contains(g.stamp); });
+    if (!excluded && !(g.stdDev3d() > params.stddev_threshold)) out.push_back(g);
+  }
+  return out;
+}
+
+/// Without the fusion, the clock offset the speed profiles show (clock_offset.h), from the
+/// fixes a control point may come from: applied on top of gnss_time_offset where they show one
+/// beyond kSignificant sigmas of zero (max_time_offset 0: none asked for). Nothing refines it,
+/// and the stamps as given are the better guess for an offset within the noise: monza, whose
+/// true offset is 0, every 4th fix held out: -0.0032 +- 0.0029 s, applied MAE 0.220 -> 0.228 m.
+void estimateClockWithoutFusion(const Params& params, GeoreferenceResult& r) {
+  constexpr double kSignificant = 3.0;
+  r.clock_offset = params.gnss_time_offset;
+  if (!(params.max_time_offset > 0.0)) return;
+  r.speed_clock =
+      estimateClockOffset(r.poses, controlPointFixes(params, r), params.max_time_offset);
+  const ClockOffsetEstimate& c = *r.speed_clock;
+  if (!c.observable || !(std::abs(c.offset) > kSignificant * c.sigma)) return;
+  r.clock_offset += c.offset;
+  r.clock_offset_sigma = c.sigma;
+  matchGnssAt(c.offset, params, r);
+}
+
 /// Control points and sheet from the fused trajectory, with points beside and above it.
 void sheetFromFusion(const Params& params, const CancelToken& cancel, const LeaveOutFolds& folds,
                      GeoreferenceResult& r, StageSeconds& seconds, Stopwatch& watch) {
@@ -445,7 +475,7 @@ GeoreferenceResult georeference(const DriveInput& input, const Params& params,
     watch.lap();
     if (r.method == Method::kGnss) return r;  // the GNSS control points' run, complete
   } else {
-    r.clock_offset = params.gnss_time_offset;
+    estimateClockWithoutFusion(params, r);
     sheetFromGnss(params, r);
     r.seconds.control_points = watch.lap();
   }

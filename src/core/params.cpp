@@ -84,7 +84,8 @@ ParamTable<P> makeTable() {
       realRow<P>("outlier_threshold", &P::outlier_threshold, 3.0, 0.5, 100, "sigma",
                  "Scale of the robust loss: fixes far beyond it lose their pull", live),
       realRow<P>("max_time_offset", &P::max_time_offset, 1.0, 0.0, 10, "s",
-                 "Largest GNSS clock offset the fusion estimates (0: none)"),
+                 "Largest GNSS clock offset estimated, by the fusion or without it from the speeds "
+                 "(0: none)"),
       realRow<P>("max_slam_noise_scale", &P::max_slam_noise_scale, 100.0, 1.0, 10000, "",
                  "Largest factor the fusion raises the slam_*_noise by where the GNSS says the "
                  "SLAM drifts more (1: never)"),

@@ -35,6 +35,8 @@ flexcloud::Result toResultMsg(const NodeResult* r, bool success, const std::stri
     m.slam_jitter_h = g.fusion->slam_jitter_h;
     m.slam_jitter_v = g.fusion->slam_jitter_v;
     m.poses_moved_to_fixes = static_cast<std::uint32_t>(g.fusion->detail_poses);
+  } else if (g.speed_clock && std::isfinite(g.clock_offset_sigma)) {
+    m.time_offset = g.speed_clock->offset;  // without the fusion, the speed profiles' offset
   }
   m.poses = static_cast<std::uint32_t>(g.poses.size());
   m.poses_matched = static_cast<std::uint32_t>(g.poses_matched);

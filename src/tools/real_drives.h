@@ -24,7 +24,7 @@ struct LeaveOutSplit {
 LeaveOutSplit holdOut(const DriveInput& drive, std::size_t every);
 
 /// The held-out fixes' distances from a result's rubber-sheeted trajectory at their instants
-/// (gnss_time_offset and the fusion's estimate on top of it applied).
+/// (the result's clock offset applied: gnss_time_offset and the estimate on top of it).
 ErrorStats heldOutError(const GeoreferenceResult& r, const Params& p,
                         const std::vector<GnssPoint>& held_out);
 

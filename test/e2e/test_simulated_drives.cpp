@@ -129,8 +129,17 @@ TEST(SimulatedDrive, OutagesNoFixStopsAndClockOffsetAreHandled) {
   // Without the clock offset correction the same drive is visibly worse.
   Params no_offset;
   no_offset.fusion = false;
+  no_offset.max_time_offset = 0.0;
   const ErrorStats skewed = truthError(georeference(in, no_offset));
   EXPECT_GT(skewed.rmse, 2.0 * good.rmse);
+  // Without the fusion and without the offset given, the speed profiles show it.
+  Params simple;
+  simple.fusion = false;
+  const GeoreferenceResult s = georeference(in, simple);
+  ASSERT_TRUE(s.speed_clock && s.speed_clock->observable);
+  EXPECT_NEAR(s.clock_offset, -0.3, 0.01);
+  const ErrorStats from_speed = truthError(s);
+  EXPECT_LT(from_speed.rmse, 1.2 * good.rmse);
   // The fusion estimates the offset itself (the stop shows it) and bridges the outage.
   const GeoreferenceResult fused = georeference(in, Params{});
   const ErrorStats estimated = truthError(fused);
@@ -138,8 +147,10 @@ TEST(SimulatedDrive, OutagesNoFixStopsAndClockOffsetAreHandled) {
   EXPECT_LT(estimated.rmse, 0.6 * good.rmse);
   std::printf(
       "outage/stop/offset drive: trajectory vs truth RMSE %.3f m (max %.3f), %.3f m "
-      "without the offset; with the fusion and no offset given %.3f m (estimated %.3f s)\n",
-      good.rmse, good.max, skewed.rmse, estimated.rmse, fused.fusion->time_offset);
+      "without the offset, %.3f m with the speed profiles' (%.4f s); with the fusion and no "
+      "offset given %.3f m (estimated %.3f s)\n",
+      good.rmse, good.max, skewed.rmse, from_speed.rmse, s.clock_offset, estimated.rmse,
+      fused.fusion->time_offset);
 }
 
 /// A SLAM that keeps a pose every 2.5 m (a keyframe trajectory) leaves one gap of half a

@@ -48,7 +48,8 @@ Params gnssParams(const Params& params, const GeoreferenceResult& r) {
   Params p = params;
   p.fusion = false;
   p.leave_out_folds = 0;
-  p.gnss_time_offset = r.clock_offset;
+  p.gnss_time_offset = r.clock_offset;  // the fusion's estimate: not estimated again
+  p.max_time_offset = 0.0;
   if (r.datum) {
     p.datum_lat = r.datum->lat;
     p.datum_lon = r.datum->lon;
