@@ -8,6 +8,8 @@
 
 #include <atomic>
 #include <filesystem>
+#include <mutex>
+#include <string>
 #include <thread>
 
 #include "flexcloud/FromLL.h"
@@ -30,6 +32,14 @@ using Config = flexcloud::GeoreferenceConfig;
 struct Counts {
   std::atomic<int> runs{0}, refused{0}, tunes{0}, saves{0}, loads{0}, conversions{0}, resets{0};
   std::atomic<int> failed{0};  ///< answers that were neither a result nor "busy"
+  std::mutex mutex;
+  std::string failures;  ///< what each failed answer said
+
+  void fail(const std::string& what, const std::string& message) {
+    std::lock_guard<std::mutex> lock(mutex);
+    ++failed;
+    failures += what + " answered: " + message + "\n";
+  }
 
   bool enough() const {
     return runs >= 3 && refused >= 1 && tunes >= 6 && saves >= 3 && loads >= 3 && conversions >= 20;
@@ -37,9 +47,7 @@ struct Counts {
 };
 
 void count(bool ok, const std::string& what, const std::string& message, Counts& c) {
-  if (ok) return;
-  ++c.failed;
-  std::printf("races: %s answered: %s\n", what.c_str(), message.c_str());
+  if (!ok) c.fail(what, message);
 }
 
 /// ~georeference until `done`; a refusal because a run is going is what overlapping calls get.
@@ -207,7 +215,7 @@ TEST(Races, CallsReconfiguresSavesResetsAndNewMapsAtOnce) {
       "conversions, %d resets, %d failed\n",
       c.runs.load(), c.refused.load(), c.tunes.load(), c.saves.load(), c.loads.load(),
       c.conversions.load(), c.resets.load(), c.failed.load());
-  EXPECT_EQ(c.failed.load(), 0);
+  EXPECT_EQ(c.failed.load(), 0) << c.failures;
   fs::remove_all(dir);
 
   // The node still works, and the last setting wins: the drive again, then a reconfigure
