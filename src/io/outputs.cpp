@@ -77,6 +77,7 @@ json fusionJson(const FusionResult& f) {
           {"poses_moved_to_fixes", f.detail_poses},
           {"largest_move_to_fixes_m", f.detail_max_shift},
           {"stages", f.stages},
+          {"solves", f.solves},
           {"seconds", f.seconds}};
 }
 

@@ -137,5 +137,25 @@ TEST(ClockOffset, TheFusionUsesAnOffsetNearTheRangesEdge) {
   EXPECT_LE(r.time_offset, 0.4);
 }
 
+/// The fused offset on a drive whose fixes are `offset` s off, max_time_offset `range`.
+FusionResult fuseWithOffset(double offset, double range) {
+  DriveSpec s;
+  s.offset = offset;
+  const Drive d = makeDrive(s);
+  Params params;
+  params.max_time_offset = range;
+  return fuseTrajectory(d.slam, d.gnss, Eigen::Isometry3d::Identity(), fusionOptions(params));
+}
+
+TEST(ClockOffset, AnOffsetWithinTheRangeCostsOneSolvePerStage) {
+  // No stage is solved again with the offset held at the bound when it never got there.
+  const FusionResult r = fuseWithOffset(0.15, 0.4);
+  std::printf("offset 0.15, range 0.4: fused %.4f s, %d stages, %d solves\n", r.time_offset,
+              r.stages, r.solves);
+  EXPECT_NEAR(r.time_offset, 0.15, 0.005);
+  EXPECT_GT(r.stages, 0);
+  EXPECT_EQ(r.solves, r.stages);
+}
+
 }  // namespace
 }  // namespace flexcloud

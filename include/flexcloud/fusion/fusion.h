@@ -103,6 +103,9 @@ struct FusionResult {
   std::size_t excluded = 0;
   std::size_t outside = 0;
   int stages = 0;  ///< robust-loss stages solved
+  /// Ceres solves of the stages: one each, two where the offset left max_time_offset and the
+  /// stage was solved again with it held at the bound.
+  int solves = 0;
   double seconds = 0.0;
 };
 

@@ -678,13 +678,18 @@ class Fusion {
 
     ceres::Solver::Summary summary;
     ceres::Solve(o, &problem, &summary);
+    int solves = 1;
     if (clampOffset()) {
       // Beyond the range asked for: the offset held at its bound, the rest solved again.
       problem.SetParameterBlockConstant(&dt_);
       ceres::Solve(o, &problem, &summary);
       problem.SetParameterBlockVariable(&dt_);
+      ++solves;
     }
-    if (held_out_ < 0) ++out_.stages;
+    if (held_out_ < 0) {
+      ++out_.stages;
+      out_.solves += solves;
+    }
   }
 
   /// Moves the clock offset (shift_ + dt_) back within max_time_offset where a solve took it
@@ -692,9 +697,11 @@ class Fusion {
   bool clampOffset() {
     if (!clock_.observable) return false;
     const double bound = options_.max_time_offset;
-    const double clamped = std::clamp(shift_ + dt_, -bound, bound) - shift_;
-    if (clamped == dt_) return false;
-    dt_ = clamped;
+    const double offset = shift_ + dt_;
+    // Compared as the sum: (shift_ + dt_) - shift_ need not give dt_ back to the last bit, and
+    // taken for a move it redid every solve.
+    if (std::abs(offset) <= bound) return false;
+    dt_ = std::clamp(offset, -bound, bound) - shift_;
     return true;
   }
 
