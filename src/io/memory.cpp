@@ -1,5 +1,7 @@
 #include "flexcloud/io/memory.h"
 
+#include <malloc.h>
+
 #include <fstream>
 #include <string>
 
@@ -19,6 +21,13 @@ double peakMemoryMb(const std::string& status_path) {
     std::getline(status, key);
   }
   return 0.0;
+}
+
+void keepFreedMemory() {
+  constexpr int kMmapThreshold = 32 << 20;
+  constexpr int kTrimThreshold = 128 << 20;
+  ::mallopt(M_MMAP_THRESHOLD, kMmapThreshold);
+  ::mallopt(M_TRIM_THRESHOLD, kTrimThreshold);
 }
 
 }  // namespace flexcloud

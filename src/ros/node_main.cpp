@@ -5,6 +5,7 @@
 #include <cstring>
 #include <iostream>
 
+#include "flexcloud/io/memory.h"
 #include "flexcloud/ros/georeference_node.h"
 
 int main(int argc, char** argv) {
@@ -18,6 +19,7 @@ int main(int argc, char** argv) {
       return 0;
     }
   }
+  flexcloud::keepFreedMemory();
   ros::init(argc, argv, "flexcloud");
   ros::NodeHandle nh;
   ros::NodeHandle pnh("~");

@@ -13,6 +13,7 @@
 
 #include "cli.h"
 #include "flexcloud/georeference.h"
+#include "flexcloud/io/memory.h"
 #include "flexcloud/sim/scenarios.h"
 #include "flexcloud/sim/truth_metrics.h"
 #include "real_drives.h"
@@ -126,6 +127,7 @@ void runOne(const Options& o, const std::string& name, std::uint64_t seed) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  flexcloud::keepFreedMemory();
   try {
     const Options o = parse(argc, argv);
     if (!o.real.empty()) {

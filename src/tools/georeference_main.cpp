@@ -388,6 +388,7 @@ int run(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  flexcloud::keepFreedMemory();
   std::signal(SIGINT, [](int) { g_interrupt.cancel(); });
   std::signal(SIGTERM, [](int) { g_interrupt.cancel(); });
   ros::Time::init();
