@@ -1,0 +1,40 @@
+// The process memory helpers: the peak read from a status file, and the allocator keeping what
+// was freed.
+#include <gtest/gtest.h>
+#include <malloc.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <string>
+
+#include "flexcloud/io/memory.h"
+
+namespace flexcloud {
+namespace {
+
+TEST(Memory, PeakIsVmHwmOfTheStatusFile) {
+  const std::string path = testing::TempDir() + "/flexcloud_status";
+  std::ofstream(path) << "Name:\tx\nVmPeak:\t  9999 kB\nVmHWM:\t    3072 kB\nVmRSS:\t 100 kB\n";
+  EXPECT_DOUBLE_EQ(peakMemoryMb(path), 3.0);
+  EXPECT_DOUBLE_EQ(peakMemoryMb(path + ".absent"), 0.0);
+  EXPECT_GT(peakMemoryMb(), 1.0);  // this process
+}
+
+TEST(Memory, AFreedBlockStaysWithTheProcess) {
+  keepFreedMemory();
+  constexpr std::size_t kBlock = 24u << 20;  // under the 32 MiB kept on the heap
+  const struct mallinfo2 before = mallinfo2();
+  char* block = static_cast<char*>(std::malloc(kBlock));
+  ASSERT_NE(block, nullptr);
+  std::memset(block, 1, kBlock);
+  const struct mallinfo2 held = mallinfo2();
+  EXPECT_EQ(held.hblks, before.hblks);  // from the heap, not a mapping of its own
+  std::free(block);
+  const struct mallinfo2 after = mallinfo2();
+  EXPECT_GE(after.arena, kBlock);     // the heap was not trimmed back to the kernel
+  EXPECT_GE(after.fordblks, kBlock);  // and the block is free for the next allocation
+}
+
+}  // namespace
+}  // namespace flexcloud
