@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Draws DIR/report.png from the files of a flexcloud run in DIR.
 
-usage: plot_report.py DIR
+usage: plot_report.py DIR   (or -: DIR is read from the first line of standard input)
 
 Left: top view of the corrected trajectory coloured by the correction the rubber sheet applied
 (distance between the rigidly aligned and the corrected pose), the GNSS, the control points and
@@ -157,4 +157,9 @@ if __name__ == "__main__":
     if len(sys.argv) != 2 or sys.argv[1] in ("-h", "--help"):
         print(__doc__.strip().splitlines()[2])
         sys.exit(0 if len(sys.argv) == 2 else 2)
-    sys.exit(main(sys.argv[1]))
+    if sys.argv[1] != "-":
+        sys.exit(main(sys.argv[1]))
+    # The folder on standard input: started before the run's files exist, the imports above
+    # done while they are made; nothing to draw when none comes.
+    folder = sys.stdin.readline().strip()
+    sys.exit(main(folder) if folder else 0)

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <iomanip>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 
 #include "flexcloud/io/atomic_file.h"
@@ -415,7 +416,9 @@ ExportSummary writeStaged(Staging& stage, const std::string& dir, const Georefer
   ExportSummary e;
   writeRunFiles(stage, r, run, e);
   // The picture needs only the run's files: drawn while the map is warped and written.
-  PlotJob plot(run.plot_script, stage.folder());
+  std::optional<PlotJob> own;
+  PlotJob& plot = run.plot != nullptr ? *run.plot : own.emplace(run.plot_script);
+  plot.draw(stage.folder());
   if (write_map) write_map(stage.path(kMapFile));
   const auto t0 = std::chrono::steady_clock::now();
   writeMapExports(stage, r, params, run, e);

@@ -341,6 +341,8 @@ int run(int argc, char** argv) {
   const Params params = loadParams(o);
   const Progress log(o.quiet);
   RunContext context;
+  PlotJob plot(findPlotScript());  // Python and matplotlib load while the drive is georeferenced
+  context.plot = &plot;
   const DriveInput drive = loadDrive(o, log, context.frames.map);
   checkCancel();
   MapInfo info;
@@ -370,7 +372,6 @@ int run(int argc, char** argv) {
     context.peak_memory_mb = peakMemoryMb();
   };
   context.peak_memory_mb = peakMemoryMb();
-  context.plot_script = findPlotScript();
   context.measure_peak = [] { return peakMemoryMb(); };
   const ExportSummary exports =
       writeOutputs(o.out, r, params, has_map ? measured : MapWriter(), context);

@@ -15,6 +15,8 @@
 
 namespace flexcloud {
 
+class PlotJob;
+
 /// What happened to the map, for the report.
 struct MapInfo {
   std::string input;  ///< file or topic it came from
@@ -48,6 +50,9 @@ struct RunContext {
   const CancelToken* cancel = &neverCancelled();
   /// scripts/plot_report.py of the package (empty: not found; report.png is then skipped).
   std::string plot_script;
+  /// The plot started before the run (the tool, so that Python loads beside the fusion); null:
+  /// one is started from plot_script once the files are written.
+  PlotJob* plot = nullptr;
 };
 
 /// What was written beside the map and the trajectories.
