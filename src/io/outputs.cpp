@@ -410,20 +410,8 @@ void checkExports(const GeoreferenceResult& r, const Params& params) {
 
 namespace {
 
-/// writeOutputs once the staging folder exists.
-ExportSummary writeStaged(Staging& stage, const std::string& dir, const GeoreferenceResult& r,
-                          const Params& params, const MapWriter& write_map, const RunContext& run) {
-  ExportSummary e;
-  writeRunFiles(stage, r, run, e);
-  // The picture needs only the run's files: drawn while the map is warped and written.
-  std::optional<PlotJob> own;
-  PlotJob& plot = run.plot != nullptr ? *run.plot : own.emplace(run.plot_script);
-  plot.draw(stage.folder());
-  if (write_map) write_map(stage.path(kMapFile));
-  const auto t0 = std::chrono::steady_clock::now();
-  writeMapExports(stage, r, params, run, e);
-  e.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  run.cancel->check(dir + ": before the outputs were moved into place");
+/// Waits for report.png: kept among the outputs, or a note saying why there is none.
+void finishPlot(Staging& stage, PlotJob& plot, ExportSummary& e) {
   const std::string skipped = plot.finish();
   e.plot = skipped.empty();
   if (e.plot) {
@@ -431,6 +419,24 @@ ExportSummary writeStaged(Staging& stage, const std::string& dir, const Georefer
   } else {
     e.notes.push_back(skipped);
   }
+}
+
+/// writeOutputs once the staging folder exists.
+ExportSummary writeStaged(Staging& stage, const std::string& dir, const GeoreferenceResult& r,
+                          const Params& params, const MapWriter& write_map, const RunContext& run) {
+  ExportSummary e;
+  writeRunFiles(stage, r, run, e);
+  // The picture needs only the run's files: drawn while the map is warped and written.
+  std::optional<PlotJob> own;
+  PlotJob* plot = nullptr;
+  if (params.report_png) plot = run.plot != nullptr ? run.plot : &own.emplace(run.plot_script);
+  if (plot != nullptr) plot->draw(stage.folder());
+  if (write_map) write_map(stage.path(kMapFile));
+  const auto t0 = std::chrono::steady_clock::now();
+  writeMapExports(stage, r, params, run, e);
+  e.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  run.cancel->check(dir + ": before the outputs were moved into place");
+  if (plot != nullptr) finishPlot(stage, *plot, e);
   RunContext measured = run;
   if (run.measure_peak) measured.peak_memory_mb = run.measure_peak();
   writeTextFile(stage.path("report.json"), reportJson(r, params, measured, &e));

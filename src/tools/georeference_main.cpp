@@ -341,8 +341,9 @@ int run(int argc, char** argv) {
   const Params params = loadParams(o);
   const Progress log(o.quiet);
   RunContext context;
-  PlotJob plot(findPlotScript());  // Python and matplotlib load while the drive is georeferenced
-  context.plot = &plot;
+  // Python and matplotlib load while the drive is georeferenced.
+  std::optional<PlotJob> plot;
+  if (params.report_png) context.plot = &plot.emplace(findPlotScript());
   const DriveInput drive = loadDrive(o, log, context.frames.map);
   checkCancel();
   MapInfo info;

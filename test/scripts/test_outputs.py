@@ -369,6 +369,16 @@ class Outputs(unittest.TestCase):
         report = json.loads((self.out["local_cartesian"] / "report.json").read_text())
         self.assertTrue(report["exports"]["report_png"])
 
+    def test_report_png_false_leaves_the_picture_out_without_a_note(self):
+        out = self.tmp / "no_png"
+        p = run(BIN / "georeference", "--bag", self.drive / "drive.bag", "--datum", *DATUM,
+                "--out", out, "--set", "report_png=false")
+        self.assertFalse((out / "report.png").exists())
+        self.assertNotIn("report.png", p.stderr)
+        report = json.loads((out / "report.json").read_text())
+        self.assertFalse(report["exports"]["report_png"])
+        self.assertTrue((out / "trajectory_rubbersheet.txt").exists())
+
     def test_to_ll_sends_slam_poses_where_the_corrected_trajectory_is(self):
         rows = np.loadtxt(self.out["local_cartesian"] / "points_ll.txt")
         slam = np.loadtxt(self.drive / "slam_trajectory.txt")
