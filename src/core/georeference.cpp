@@ -373,9 +373,11 @@ void sheetFromGnss(const Params& params, GeoreferenceResult& r) {
   r.T_enu_map = a.T_enu_map;
   r.scale = a.scale;
   r.aligned = transformed(r.poses, r.T_enu_map);
-  r.cuboid_enu = makeCuboid(r.aligned, r.gnss_at_pose, sheetOptions(params));
-  r.control_points = chooseControlPoints(r.poses, r.gnss_at_pose, usable, r.T_enu_map, r.cuboid_enu,
-                                         sheetOptions(params));
+  SheetOptions options = sheetOptions(params);
+  options.targets_are_fixes = true;
+  r.cuboid_enu = makeCuboid(r.aligned, r.gnss_at_pose, options);
+  r.control_points =
+      chooseControlPoints(r.poses, r.gnss_at_pose, usable, r.T_enu_map, r.cuboid_enu, options);
   r.sheet = buildSheet(r.control_points, {}, r.T_enu_map, r.cuboid_enu);
 }
 

@@ -25,6 +25,9 @@ struct SheetOptions {
   double above_height = 0.0;           ///< m, a point above each control point
   Eigen::Vector3d margin = Eigen::Vector3d::Zero();  ///< cuboid margin, fraction of the extent
   double margin_min = 0.0;                           ///< m, the smallest margin on every axis
+  /// The targets are measured fixes (not the fused trajectory): the refinement then follows
+  /// where the sheet and the fixes part, not a lone fix off its neighbours.
+  bool targets_are_fixes = false;
 };
 struct Params;
 SheetOptions sheetOptions(const Params& p);
@@ -43,7 +46,8 @@ std::shared_ptr<const RubberSheet> buildSheet(const ControlPointSelection& cps,
 
 /// options.control_points.count control points on the trajectory: (1 - refine_fraction) of them
 /// spread evenly by arc length over the poses with a target, the rest by error-driven
-/// refinement against the targets. usable[i]: pose i may be a control point. Throws Error when
+/// refinement against the targets (against the local consensus of the fixes where
+/// options.targets_are_fixes). usable[i]: pose i may be a control point. Throws Error when
 /// fewer than 4 are usable.
 ControlPointSelection chooseControlPoints(const Trajectory& poses,
                                           const std::vector<std::optional<GnssPoint>>& targets,
