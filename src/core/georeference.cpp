@@ -325,6 +325,17 @@ std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Param
          "between the passes belong to both: close those loops in the SLAM";
     out.push_back(s.str());
   }
+  if (r.fusion && r.fusion->time_offset_held) {
+    const FusionResult& f = *r.fusion;
+    std::ostringstream s;
+    s.setf(std::ios::fixed);
+    s.precision(4);
+    s << "clock: the fit of positions put the GNSS " << f.time_offset_from_positions
+      << " s off the SLAM, the speed profiles " << f.time_offset_from_speed << " +- "
+      << f.time_offset_speed_sigma << " s; held at the speed profiles' (a SLAM shape error, as "
+      << "in fast turns, passes for an offset in a fit of positions)";
+    out.push_back(s.str());
+  }
   if (r.fusion) {
     const std::vector<FalseRtk> runs = falseRtkStretches(*r.fusion);
     for (std::size_t k = 0; k < runs.size() && k < 3; ++k) {

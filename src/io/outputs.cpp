@@ -110,6 +110,8 @@ json clockJson(const GeoreferenceResult& r) {
     j["estimated"] = r.fusion->time_offset_estimated;
     j["from_speed_profiles_s"] = r.fusion->time_offset_from_speed;
     j["from_speed_profiles_sigma_s"] = finiteOrNull(r.fusion->time_offset_speed_sigma);
+    j["from_positions_s"] = r.fusion->time_offset_from_positions;
+    j["held_at_speed_profiles"] = r.fusion->time_offset_held;
   } else if (r.speed_clock) {
     j["estimated"] = std::isfinite(r.clock_offset_sigma);  // shown beyond its noise: applied
     j["from_speed_profiles_s"] = r.speed_clock->offset;

@@ -35,7 +35,9 @@ errors against the ground truth (doc/ACCURACY.md).
   --only-flexcloud          leave out the published method
   --real DIR[,DIR...]       instead: real drives (slam_poses_tum.txt, gnss_local_at_poses.txt),
                             every N-th fix held out of the run and the trajectory compared with
-                            it at its instant (MAE, MAX, RMSE in metres)
+                            it at its true instant, whatever clock a method chose: the GNSS's
+                            lead on the SLAM read from the drive by local rigid fits, shown
+                            beside its name (MAE, MAX, RMSE in metres)
   --holdout N               with --real: hold out every N-th fix (default 4)
   -h, --help
 )";

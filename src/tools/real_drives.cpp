@@ -1,11 +1,14 @@
 #include "real_drives.h"
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 
 #include "flexcloud/input/trajectory.h"
 #include "flexcloud/io/text_io.h"
+#include "flexcloud/metrics.h"
 
 namespace flexcloud::study {
 
@@ -31,9 +34,67 @@ LeaveOutSplit holdOut(const DriveInput& drive, std::size_t every) {
   return s;
 }
 
+namespace {
+
+/// Speed (m/s, horizontal) at row i of the GNSS, from its neighbours.
+double speedAt(const std::vector<GnssPoint>& g, std::size_t i) {
+  return (g[i + 1].position - g[i - 1].position).head<2>().norm() /
+         (g[i + 1].stamp - g[i - 1].stamp);
+}
+
+}  // namespace
+
+std::vector<LagSample> lagSamples(const DriveInput& drive) {
+  constexpr int kHalf = 10;
+  const std::vector<GnssPoint>& g = drive.local_gnss;
+  std::vector<LagSample> out;
+  if (g.size() != drive.poses.size()) return out;  // row i of one belongs to row i of the other
+  // speedAt(j) reads j - 1 and j + 1: the windows keep one fix from either end.
+  for (std::size_t i = kHalf + 1; i + kHalf + 1 < g.size(); ++i) {
+    Eigen::Matrix3Xd src(3, 2 * kHalf + 1), dst(3, 2 * kHalf + 1);
+    double mean_speed = 0.0;
+    for (int k = -kHalf; k <= kHalf; ++k) {
+      src.col(k + kHalf) = drive.poses[i + k].position;
+      dst.col(k + kHalf) = g[i + k].position;
+      mean_speed += speedAt(g, i + k) / (2 * kHalf + 1);
+    }
+    const Eigen::Matrix4d T = Eigen::umeyama(src, dst, false);
+    const Eigen::Vector3d fitted =
+        T.topLeftCorner<3, 3>() * drive.poses[i].position + T.topRightCorner<3, 1>();
+    const Eigen::Vector2d dir = (g[i + 1].position - g[i - 1].position).head<2>().normalized();
+    LagSample s;
+    s.speed = speedAt(g, i);
+    s.speed_change = s.speed - mean_speed;
+    s.along = dir.dot((g[i].position - fitted).head<2>());
+    out.push_back(s);
+  }
+  return out;
+}
+
+double lagOf(const std::vector<LagSample>& samples) {
+  // Least squares through the origin, then again without the samples beyond 3 robust sigmas
+  // of its residual, twice (a2rl's disputed stretch and stops alone moved it by 6 ms).
+  auto fit = [&](double keep, double lag) {
+    double xy = 0.0, xx = 0.0;
+    for (const auto& s : samples) {
+      if (std::abs(s.along - lag * s.speed_change) > keep) continue;
+      xy += s.speed_change * s.along;
+      xx += s.speed_change * s.speed_change;
+    }
+    return xx > 0.0 ? xy / xx : 0.0;
+  };
+  double lag = fit(std::numeric_limits<double>::infinity(), 0.0);
+  for (int round = 0; round < 2; ++round) {
+    std::vector<double> r;
+    for (const auto& s : samples) r.push_back(std::abs(s.along - lag * s.speed_change));
+    if (r.empty()) break;
+    lag = fit(3.0 * 1.4826 * median(r), lag);
+  }
+  return lag;
+}
+
 ErrorStats heldOutError(const GeoreferenceResult& r, const Params& p,
-                        const std::vector<GnssPoint>& held_out) {
-  const double offset = r.clock_offset;
+                        const std::vector<GnssPoint>& held_out, double offset) {
   const Eigen::Vector3d lever(p.lever_arm_x, p.lever_arm_y, p.lever_arm_z);
   std::vector<double> d;
   for (double x : deviationsAtFixes(r.rubbersheet, held_out, offset, lever)) {
@@ -83,8 +144,13 @@ std::string notesOf(const GeoreferenceResult& r) {
 
 void printRealDriveRows(const std::string& dir, std::size_t every, int control_points,
                         const std::vector<std::pair<std::string, std::string>>& sets) {
-  const LeaveOutSplit split = holdOut(loadRealDrive(dir), every);
-  const std::string name = std::filesystem::path(dir).filename().string();
+  const DriveInput drive = loadRealDrive(dir);
+  const double lag = lagOf(lagSamples(drive));
+  const LeaveOutSplit split = holdOut(drive, every);
+  char label[64];
+  std::snprintf(label, sizeof(label), "%s (GNSS %+.3f s)",
+                std::filesystem::path(dir).filename().string().c_str(), lag);
+  const std::string name = label;
   auto make = [&](bool fusion, double refine) {
     Params p;
     p.fusion = fusion;
@@ -96,7 +162,7 @@ void printRealDriveRows(const std::string& dir, std::size_t every, int control_p
   };
   auto run = [&](const std::string& method, const Params& p) {
     const GeoreferenceResult r = georeference(split.run, p);
-    printRow(name, method, heldOutError(r, p, split.held_out), r);
+    printRow(name, method, heldOutError(r, p, split.held_out, lag), r);
     return r;
   };
   Params published = make(false, 0.0);

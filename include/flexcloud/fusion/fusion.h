@@ -69,6 +69,11 @@ struct FusionResult {
   double time_offset_sigma = 0.0;
   double time_offset_from_speed = 0.0;
   double time_offset_speed_sigma = 0.0;
+  /// Where the fit of positions took the offset (time_offset_from_positions) beyond two of the
+  /// speed profiles' sigmas from theirs, the offset is held at theirs: a SLAM shape error (fast
+  /// turns) passes for a clock offset in a fit of positions, never in the speed profiles.
+  bool time_offset_held = false;
+  double time_offset_from_positions = 0.0;
   Eigen::Vector3d lever_arm = Eigen::Vector3d::Zero();  ///< applied, body frame, m
   /// The 1-sigma std-devs given to fixes without one: estimated from the residuals (NaN when
   /// every fix had its own).
