@@ -332,8 +332,10 @@ std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Param
     s.precision(4);
     s << "clock: the fit of positions put the GNSS " << f.time_offset_from_positions
       << " s off the SLAM, the speed profiles " << f.time_offset_from_speed << " +- "
-      << f.time_offset_speed_sigma << " s; held at the speed profiles' (a SLAM shape error, as "
-      << "in fast turns, passes for an offset in a fit of positions)";
+      << f.time_offset_speed_sigma << " s; held at "
+      << (f.time_offset == 0.0 ? "the stamps as given (no offset beyond the profiles' noise)"
+                               : "the speed profiles'")
+      << ": a SLAM shape error, as in fast turns, passes for an offset in a fit of positions";
     out.push_back(s.str());
   }
   if (r.fusion) {

@@ -46,10 +46,10 @@ ErrorStats heldOutRun(const study::LeaveOutSplit& split, double lag, const Param
 /// (GNSS control points spread evenly, no refinement), at the fixes' own instants. The simple
 /// way's refinement follows where the sheet and the fixes part, not lone poses off their
 /// neighbours: 0.053 / 0.463 m against the published 0.097 / 0.703 m. The defaults keep the
-/// SLAM's shape through the two chicanes and reject fixes there: 0.119 / 1.183 m, behind both
-/// (doc/ACCURACY.md). Their fit of positions took the chicanes for a clock offset of -0.012 s,
-/// 0.3 m along the track at monza's speeds (0.302 / 1.020 m); the clock is now held at the
-/// speed profiles'.
+/// SLAM's shape through the two chicanes and reject fixes there: 0.094 / 1.248 m, behind the
+/// simple way (doc/ACCURACY.md). Their fit of positions took the chicanes for a clock offset of
+/// -0.012 s, 0.3 m along the track at monza's speeds (0.302 / 1.020 m); the clock is now held
+/// where the speed profiles disagree.
 TEST(Monza, LeaveOutDeviation) {
   const std::string dir = test::findRealDrive("monza");
   if (dir.empty()) {
@@ -80,11 +80,12 @@ TEST(Monza, LeaveOutDeviation) {
   ASSERT_TRUE(r.fusion);
   EXPECT_TRUE(r.fusion->time_offset_held);
   EXPECT_LT(r.fusion->time_offset_from_positions, -0.009);
-  EXPECT_LT(std::abs(r.fusion->time_offset), 0.005);  // -0.0032 s
-  EXPECT_LT(defaults.mae, 0.15);                      // 0.119 m (0.302 m at the fit's clock)
-  EXPECT_LT(defaults.max, 1.3);                       // 1.183 m
-  EXPECT_LT(simple.mae, 0.6 * published.mae);         // 0.053 m
-  EXPECT_LT(simple.max, 0.8 * published.max);         // 0.463 m
+  // The profiles' -0.0032 +- 0.0029 s is within their noise: the stamps as given.
+  EXPECT_EQ(r.fusion->time_offset, 0.0);
+  EXPECT_LT(defaults.mae, 0.12);               // 0.094 m (0.302 m at the fit's clock)
+  EXPECT_LT(defaults.max, 1.4);                // 1.248 m, the chicanes
+  EXPECT_LT(simple.mae, 0.6 * published.mae);  // 0.053 m
+  EXPECT_LT(simple.max, 0.8 * published.max);  // 0.463 m
 }
 
 }  // namespace

@@ -70,8 +70,9 @@ struct FusionResult {
   double time_offset_from_speed = 0.0;
   double time_offset_speed_sigma = 0.0;
   /// Where the fit of positions took the offset (time_offset_from_positions) beyond two of the
-  /// speed profiles' sigmas from theirs, the offset is held at theirs: a SLAM shape error (fast
-  /// turns) passes for a clock offset in a fit of positions, never in the speed profiles.
+  /// speed profiles' sigmas from theirs, the offset is held at theirs (at 0 where theirs lies
+  /// within three of their sigmas of it): a SLAM shape error (fast turns) passes for a clock
+  /// offset in a fit of positions, never in the speed profiles.
   bool time_offset_held = false;
   double time_offset_from_positions = 0.0;
   Eigen::Vector3d lever_arm = Eigen::Vector3d::Zero();  ///< applied, body frame, m
