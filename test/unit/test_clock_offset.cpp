@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <random>
 
 #include "flexcloud/fusion/clock_offset.h"
@@ -155,6 +156,32 @@ TEST(ClockOffset, AnOffsetWithinTheRangeCostsOneSolvePerStage) {
   EXPECT_NEAR(r.time_offset, 0.15, 0.005);
   EXPECT_GT(r.stages, 0);
   EXPECT_EQ(r.solves, r.stages);
+}
+
+/// The clock a fit of positions may not take: beyond two of the speed profiles' sigmas from
+/// theirs it is held at theirs, or at 0 where theirs is within three sigmas of 0.
+TEST(ClockOffset, AFitThatLeavesTheSpeedProfilesIsHeld) {
+  ClockOffsetEstimate speeds;
+  speeds.observable = true;
+  // monza: the fit -0.0119 s, the profiles -0.0032 +- 0.0029 s (within their noise of 0).
+  speeds.offset = -0.0032;
+  speeds.sigma = 0.0029;
+  ASSERT_TRUE(heldClockOffset(-0.0119, speeds).has_value());
+  EXPECT_EQ(*heldClockOffset(-0.0119, speeds), 0.0);
+  EXPECT_FALSE(heldClockOffset(-0.0070, speeds).has_value());  // 1.3 sigmas: theirs to refine
+  // loop_closures seed 5: the fit 0.1995 s, the profiles 0.2062 +- 0.0028 s.
+  speeds.offset = 0.2062;
+  speeds.sigma = 0.0028;
+  ASSERT_TRUE(heldClockOffset(0.1995, speeds).has_value());
+  EXPECT_EQ(*heldClockOffset(0.1995, speeds), 0.2062);
+  // a2rl: the fit 0.0966 s, the profiles 0.0994 +- 0.0029 s agree.
+  speeds.offset = 0.0994;
+  speeds.sigma = 0.0029;
+  EXPECT_FALSE(heldClockOffset(0.0966, speeds).has_value());
+  // Profiles that show nothing hold nothing.
+  speeds.observable = false;
+  speeds.sigma = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(heldClockOffset(0.3, speeds).has_value());
 }
 
 }  // namespace

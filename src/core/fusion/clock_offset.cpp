@@ -188,4 +188,16 @@ ClockOffsetEstimate estimateClockOffset(const Trajectory& poses, const std::vect
   return out;
 }
 
+std::optional<double> heldClockOffset(double fitted, const ClockOffsetEstimate& speeds) {
+  // Speed-profile sigmas beyond which the fit may not take the offset (the simulated drives
+  // stay within 1.2 of them but for two of 96, whose pose-graph snaps bend the profiles), and
+  // beyond which their own offset is told from 0.
+  constexpr double kAgreement = 2.0;
+  constexpr double kSignificant = 3.0;
+  if (!speeds.observable || !(std::abs(fitted - speeds.offset) > kAgreement * speeds.sigma)) {
+    return std::nullopt;
+  }
+  return std::abs(speeds.offset) > kSignificant * speeds.sigma ? speeds.offset : 0.0;
+}
+
 }  // namespace flexcloud

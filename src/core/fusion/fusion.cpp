@@ -35,11 +35,7 @@ constexpr double kUnknownStdStart = 1.0;  // m, first guess for fixes without a 
 constexpr double kStiffSlam = 1.5;
 constexpr int kNoiseRounds = 2;
 constexpr double kMostNoiseStep = 2.0;
-constexpr double kMinOffsetSigma = 0.005;  // s, tightest the speed profiles hold the offset
-// Speed-profile sigmas beyond which the fit of positions may not take the offset (the
-// simulated drives stay within 1.2 of them but for two of 96, monza's positions take it 3.0).
-constexpr double kClockAgreement = 2.0;
-constexpr double kSignificantOffset = 3.0;   // speed-profile sigmas: an offset beyond the noise
+constexpr double kMinOffsetSigma = 0.005;    // s, tightest the speed profiles hold the offset
 constexpr double kRestampTolerance = 0.001;  // s: a remainder beyond restamps the fixes
 constexpr int kRestampRounds = 2;
 // Relative change of the cost at which a solve stops: coarse for the stages (on a2rl 4-5
@@ -631,20 +627,14 @@ class Fusion {
   }
 
   /// Two measures of the clock: the speed profiles, which no shape error of the SLAM moves, and
-  /// the fit of positions, which can take one for an offset (monza: the fit -0.0119 s, the
-  /// speed profiles -0.0032 +- 0.0029 s, its rows at one instant: 0). Where they part by more
-  /// than kClockAgreement of the profiles' sigmas, the offset is held at theirs (or at 0, see
-  /// below) and the full problem solved again at it.
+  /// the fit of positions, which can take one for an offset. Where they disagree, the offset is
+  /// held where heldClockOffset() says and the full problem solved again at it.
   void holdClockWhereTheSpeedsDisagree() {
     out_.time_offset_from_positions = shift_ + dt_;
-    if (!clock_.observable ||
-        !(std::abs(shift_ + dt_ - clock_.offset) > kClockAgreement * clock_.sigma)) {
-      return;
-    }
+    const std::optional<double> held = heldClockOffset(shift_ + dt_, clock_);
+    if (!held) return;
     out_.time_offset_held = true;
-    // An offset the profiles show within their noise is no better a guess than the stamps as
-    // given, as for the GNSS control points (estimateClockWithoutFusion).
-    shift_ = std::abs(clock_.offset) > kSignificantOffset * clock_.sigma ? clock_.offset : 0.0;
+    shift_ = *held;
     dt_ = 0.0;
     selectFixes();
     prepareFixes(unknown_h_, unknown_v_);
