@@ -145,6 +145,11 @@ std::string notesOf(const GeoreferenceResult& r) {
 void printRealDriveRows(const std::string& dir, std::size_t every, int control_points,
                         const std::vector<std::pair<std::string, std::string>>& sets) {
   const DriveInput drive = loadRealDrive(dir);
+  if (drive.poses.size() != drive.local_gnss.size()) {
+    throw Error("real drive: " + dir + ": " + std::to_string(drive.poses.size()) + " poses but " +
+                std::to_string(drive.local_gnss.size()) +
+                " GNSS rows; row i of one file must belong to row i of the other");
+  }
   const double lag = lagOf(lagSamples(drive));
   const LeaveOutSplit split = holdOut(drive, every);
   char label[64];

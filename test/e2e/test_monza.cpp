@@ -5,6 +5,8 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 
 #include "flexcloud/georeference.h"
 #include "real_drive.h"
@@ -86,6 +88,30 @@ TEST(Monza, LeaveOutDeviation) {
   EXPECT_LT(defaults.max, 1.4);                // 1.248 m, the chicanes
   EXPECT_LT(simple.mae, 0.6 * published.mae);  // 0.053 m
   EXPECT_LT(simple.max, 0.8 * published.max);  // 0.463 m
+}
+
+/// A folder whose files do not pair row by row is refused by name, before any row is printed
+/// at a lag read from rows that do not belong together.
+TEST(RealDrives, FilesThatDoNotPairRowByRowAreRefused) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / "flexcloud_unpaired_drive";
+  std::filesystem::create_directories(dir);
+  {
+    std::ofstream poses(dir / "slam_poses_tum.txt");
+    std::ofstream gnss(dir / "gnss_local_at_poses.txt");
+    for (int i = 0; i < 30; ++i) {
+      poses << 100.0 + 0.1 * i << " " << i << " 0 0 0 0 0 1\n";
+      if (i < 29) gnss << 100.0 + 0.1 * i << " " << i << " 0 0 0 0 0\n";
+    }
+  }
+  try {
+    study::printRealDriveRows(dir.string(), 4, 200, {});
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("30 poses but 29 GNSS rows"), std::string::npos)
+        << e.what();
+  }
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -617,13 +617,19 @@ class Fusion {
   void restamp() {
     for (int round = 0; round < kRestampRounds; ++round) {
       if (!clock_.observable || !(std::abs(dt_) > kRestampTolerance)) break;
-      shift_ += dt_;
-      dt_ = 0.0;
-      selectFixes();
-      prepareFixes(unknown_h_, unknown_v_);
-      const auto full = makeProblem(1);
-      solveAt(*full, 0.0, 10);
+      solveRestampedAt(shift_ + dt_);
     }
+  }
+
+  /// The fixes restamped at `shift` (their factors, keyframes and jitter made again at their new
+  /// instants, dt_ 0) and the full problem solved again from where it stands.
+  void solveRestampedAt(double shift) {
+    shift_ = shift;
+    dt_ = 0.0;
+    selectFixes();
+    prepareFixes(unknown_h_, unknown_v_);
+    const auto full = makeProblem(1);
+    solveAt(*full, 0.0, 10);
   }
 
   /// Two measures of the clock: the speed profiles, which no shape error of the SLAM moves, and
@@ -634,12 +640,7 @@ class Fusion {
     const std::optional<double> held = heldClockOffset(shift_ + dt_, clock_);
     if (!held) return;
     out_.time_offset_held = true;
-    shift_ = *held;
-    dt_ = 0.0;
-    selectFixes();
-    prepareFixes(unknown_h_, unknown_v_);
-    const auto full = makeProblem(1);
-    solveAt(*full, 0.0, 10);
+    solveRestampedAt(*held);
   }
 
   /// Squared normalised residual of a fix at the current estimate.

@@ -1,6 +1,7 @@
 #include "sheet/sheet_builder.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -64,14 +65,20 @@ Deviations sheetOffsets(const RubberSheet& sheet, const Trajectory& poses,
   return d;
 }
 
+/// score(k) for each of d's poses, at the pose's index among `poses` poses; NaN elsewhere.
+template <typename Score>
+std::vector<double> perPose(const Deviations& d, std::size_t poses, const Score& score) {
+  std::vector<double> out(poses, std::numeric_limits<double>::quiet_NaN());
+  for (std::size_t k = 0; k < d.pose.size(); ++k) out[d.pose[k]] = score(k);
+  return out;
+}
+
 /// Deviation (m) of each usable pose, warped by the sheet, from its target; NaN elsewhere.
 std::vector<double> sheetDeviation(const RubberSheet& sheet, const Trajectory& poses,
                                    const std::vector<std::optional<GnssPoint>>& targets,
                                    const std::vector<bool>& usable) {
   const Deviations d = sheetOffsets(sheet, poses, targets, usable);
-  std::vector<double> out(poses.size(), std::numeric_limits<double>::quiet_NaN());
-  for (std::size_t k = 0; k < d.pose.size(); ++k) out[d.pose[k]] = d.offset[k].norm();
-  return out;
+  return perPose(d, poses.size(), [&](std::size_t k) { return d.offset[k].norm(); });
 }
 
 /// Deviation (m) of each usable pose from its fix as far as its neighbours agree: the
@@ -89,20 +96,21 @@ std::vector<double> consensusDeviation(const RubberSheet& sheet, const Trajector
                                        const std::vector<std::optional<GnssPoint>>& fixes,
                                        const std::vector<bool>& usable) {
   const Deviations d = sheetOffsets(sheet, poses, fixes, usable);
-  std::vector<double> out(poses.size(), std::numeric_limits<double>::quiet_NaN());
   const std::size_t n = d.pose.size();
-  for (std::size_t k = 0; k < n; ++k) {
+  return perPose(d, poses.size(), [&](std::size_t k) {
     const std::size_t lo = k == 0 ? 0 : k - 1;
     const std::size_t hi = std::min(n - 1, k + 1);
     Eigen::Vector3d middle;
     for (int axis = 0; axis < 3; ++axis) {
-      std::vector<double> values;
-      for (std::size_t j = lo; j <= hi; ++j) values.push_back(d.offset[j](axis));
-      middle(axis) = median(values);
+      // The median of two or three (of two the upper, as median() takes it), without a copy.
+      std::array<double, 3> v{};
+      std::size_t m = 0;
+      for (std::size_t j = lo; j <= hi; ++j) v[m++] = d.offset[j](axis);
+      std::sort(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(m));
+      middle(axis) = v[m / 2];
     }
-    out[d.pose[k]] = std::max(0.0, middle.norm() - (d.offset[k] - middle).norm());
-  }
-  return out;
+    return std::max(0.0, middle.norm() - (d.offset[k] - middle).norm());
+  });
 }
 
 /// Error-driven refinement of `cps` up to `total` control points (Params::refine_fraction).
