@@ -11,12 +11,13 @@ import xml.etree.ElementTree as ET
 
 
 def why(case):
-    """The first lines of a failed case's message (gtest puts the failed assertion there)."""
+    """The first lines of a failed case's message (gtest puts the failed assertion there, and
+    after it the test's own words, which say why)."""
     node = case.find("failure")
     if node is None:
         node = case.find("error")
     text = (node.get("message") or node.text or "").strip()
-    lines = [line.strip() for line in text.splitlines() if line.strip()][:4]
+    lines = [line.strip() for line in text.splitlines() if line.strip()][:12]
     return "".join(f"\n          {line[:300]}" for line in lines)
 
 
