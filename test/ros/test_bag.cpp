@@ -38,7 +38,7 @@ TEST(Bag, ReadsTheBagGeoreferencesAndSaves) {
       (fs::temp_directory_path() / ("flexcloud_save_" + std::to_string(getpid()))).string();
   flexcloud::Save save;
   save.request.directory = out;
-  ASSERT_TRUE(ros::service::call("/flexcloud/save", save));
+  ASSERT_TRUE(callOver("/flexcloud/save", save));
   EXPECT_TRUE(save.response.success) << save.response.message;
   for (const char* f : {"map_georeferenced.pcd", "report.json", "origin.yaml", "control_points.txt",
                         "trajectory_rubbersheet.txt"}) {
@@ -50,7 +50,7 @@ TEST(Bag, ReadsTheBagGeoreferencesAndSaves) {
   // The same folder again with the Autoware map and the LAS asked for in the call.
   save.request.autoware = true;
   save.request.las = true;
-  ASSERT_TRUE(ros::service::call("/flexcloud/save", save));
+  ASSERT_TRUE(callOver("/flexcloud/save", save));
   EXPECT_TRUE(save.response.success) << save.response.message;
   for (const char* f : {"autoware/map_projector_info.yaml", "autoware/pointcloud_map_metadata.yaml",
                         "map_georeferenced.las", "trajectories.geojson"}) {

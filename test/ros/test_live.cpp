@@ -98,7 +98,7 @@ sim::SimDrive* Live::drive_ = nullptr;
 TEST_F(Live, NoDataIsRefusedWithAMessage) {
   std_srvs::Trigger reset;
   ASSERT_TRUE(ros::service::waitForService("/flexcloud/reset", ros::Duration(20.0)));
-  ASSERT_TRUE(ros::service::call("/flexcloud/reset", reset));
+  ASSERT_TRUE(callOver("/flexcloud/reset", reset));
   // A NavSatFix topic under another name is named as the one to remap to.
   ros::NodeHandle nh;
   const ros::Publisher other = nh.advertise<sensor_msgs::NavSatFix>("/gnss/navsat", 1);

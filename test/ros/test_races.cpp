@@ -50,10 +50,9 @@ void count(bool ok, const std::string& what, const std::string& message, Counts&
   if (!ok) c.fail(what, message);
 }
 
-/// A persistent client of the node's service `name`, as a program calling it in a loop holds.
-/// (A new connection per call would also test roscpp: on its fast non-persistent calls the
-/// server's close can be seen before the answer is read, ros_comm issue 1976, and the call
-/// returns false though the node answered: about one run in ten on a loaded machine.)
+/// A persistent client of the node's service `name`, as a program calling it in a loop holds
+/// (non-persistent calls can fail though the node answered: callOver in ros_test_util.h; with
+/// them this test failed about one run in ten on a loaded machine).
 template <typename Service>
 ros::ServiceClient clientOf(const std::string& name) {
   return ros::NodeHandle().serviceClient<Service>("/flexcloud/" + name, true);

@@ -89,7 +89,7 @@ void tuneUntil(const std::atomic<bool>& done, flexcloud::GeoreferenceConfig conf
 /// full result with the map of the flood's last replacement.
 void aCalmDriveGivesAFullResult(ros::Publisher& odom, ros::Publisher& fix) {
   std_srvs::Trigger reset;
-  ASSERT_TRUE(ros::service::call("/flexcloud/reset", reset));
+  ASSERT_TRUE(callOver("/flexcloud/reset", reset));
   ASSERT_TRUE(reset.response.success) << reset.response.message;
   sim::SimParams cp;
   cp.map_points = 0;
