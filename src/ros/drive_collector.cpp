@@ -87,13 +87,15 @@ std::size_t DriveCollector::evicted() const {
   return evicted_;
 }
 
-void DriveCollector::clear() {
+std::pair<std::size_t, std::size_t> DriveCollector::clear() {
   GuardedLock lock(mutex_);
+  const std::pair<std::size_t, std::size_t> cleared{data_.fixes.size(), data_.poses.size()};
   data_ = DriveInput{};
   frame_.clear();
   fix_frame_.clear();
   body_frame_.clear();
   evicted_ = 0;
+  return cleared;
 }
 
 }  // namespace flexcloud

@@ -540,14 +540,14 @@ std_srvs::Trigger::Response GeoreferenceNode::reset() {
     bag_stop_ = true;
   }
   if (bag_thread_.joinable()) bag_thread_.join();
-  collector_.clear();
+  const auto [fixes, poses] = collector_.clear();
   publisher_->withdraw(frames);
   publisher_->report(toResultMsg(nullptr, true, "reset: no result"));
   const std::string bag = params().bag;
   if (!bag.empty()) startBagRead();
   res.success = true;
-  res.message = bag.empty() ? "cleared every fix, pose and the result"
-                            : "cleared every fix, pose and the result; reading " + bag + " again";
+  res.message = "cleared " + std::to_string(fixes) + " fixes, " + std::to_string(poses) +
+                " poses and the result" + (bag.empty() ? "" : "; reading " + bag + " again");
   ROS_INFO("%s: %s", name_.c_str(), res.message.c_str());
   return res;
 }

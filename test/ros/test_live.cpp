@@ -5,6 +5,7 @@
 #include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <future>
 
@@ -85,9 +86,11 @@ class Live : public ::testing::Test {
     return r;
   }
 
-  static void reset() {
+  /// ~reset; returns what it said.
+  static std::string reset() {
     const auto r = callService<std_srvs::Trigger>("/flexcloud/reset");
-    ASSERT_TRUE(r.response.success) << r.response.message;
+    EXPECT_TRUE(r.response.success) << r.response.message;
+    return r.response.message;
   }
 
   static sim::SimDrive* drive_;
@@ -323,7 +326,15 @@ TEST_F(Live, ResetWithdrawsTheResultAndSaveRefuses) {
   publishDrive();
   ASSERT_TRUE(callWhenComplete().success);
   const ros::Time before = ros::Time::now();
-  reset();
+  // It says what it forgot: at least the drive (earlier tests' drives may be there too).
+  std::size_t fixes = 0, poses = 0;
+  const std::string said = reset();
+  ASSERT_EQ(
+      std::sscanf(said.c_str(), "cleared %zu fixes, %zu poses and the result", &fixes, &poses), 2)
+      << said;
+  EXPECT_GE(fixes, drive_->fixes.size());
+  EXPECT_GE(poses, drive_->slam.size());
+  EXPECT_EQ(reset(), "cleared 0 fixes, 0 poses and the result");  // nothing came in between
   const auto empty = mapAfter(before, 10.0);
   ASSERT_TRUE(empty);
   EXPECT_EQ(empty->width * empty->height, 0u);

@@ -8,6 +8,7 @@
 #include <sensor_msgs/NavSatFix.h>
 
 #include <string>
+#include <utility>
 
 #include "flexcloud/georeference.h"
 #include "flexcloud/ros/guarded_mutex.h"
@@ -40,7 +41,8 @@ class DriveCollector {
   std::size_t poseCount() const;
   /// Messages dropped to keep memory bounded.
   std::size_t evicted() const;
-  void clear();
+  /// Forgets everything collected; returns how many fixes and poses that was.
+  std::pair<std::size_t, std::size_t> clear();
 
  private:
   void setFrame(const std::string& frame) FLEXCLOUD_REQUIRES(mutex_);
