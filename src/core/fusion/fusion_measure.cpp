@@ -1,0 +1,111 @@
+// What the fusion measures at its solution (leave-out folds, the offset's sigma) and its result.
+#include "flexcloud/metrics.h"
+#include "fusion_graph.h"
+
+namespace flexcloud {
+namespace fusion_graph {
+
+Fusion Fusion::copyForSolve() const {
+  Fusion c(*this);
+  for (Fix& f : c.fixes_) f.factor.sigma = &f.sigma;
+  c.solver_threads_ = 1;
+  return c;
+}
+
+void Fusion::leaveOutFold(int k) {
+  Fusion fold = copyForSolve();
+  fold.holdout_ = &folds_.fold;
+  fold.held_out_ = k;
+  std::size_t kept = 0, held = 0;
+  for (const auto& f : fold.fixes_) (fold.heldOut(f) ? held : kept) += 1;
+  if (held == 0 || kept < 3) return;
+  fold.solveAt(*fold.makeProblem(1), 0.0, kLeaveOutIterations);
+  for (const auto& f : fold.fixes_) {
+    if (fold.heldOut(f)) out_.leave_out_deviation[f.input] = fold.residualOf(f).norm();
+  }
+}
+
+void Fusion::measureAtSolution(ceres::Problem& full) {
+  out_.leave_out_deviation.assign(gnss_.size(), std::numeric_limits<double>::quiet_NaN());
+  const bool folds = folds_.folds >= 2 && folds_.fold.size() == gnss_.size();
+  const std::size_t tasks = 1 + (folds ? static_cast<std::size_t>(folds_.folds) : 0);
+  parallelRanges(tasks, tasks, options_.threads, [&](std::size_t task, std::size_t, std::size_t) {
+    if (task > 0) {
+      leaveOutFold(static_cast<int>(task) - 1);
+    } else {
+      offset_sigma_ = !clock_.observable      ? kInf
+                      : out_.time_offset_held ? clock_.sigma
+                                              : offsetSigma(full);
+    }
+  });
+}
+
+Eigen::Isometry3d Fusion::keyframePose(const Keyframe& k) const {
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.linear() = Eigen::Quaterniond(k.q[3], k.q[0], k.q[1], k.q[2]).normalized().toRotationMatrix();
+  t.translation() = Vec3(k.p[0], k.p[1], k.p[2]);
+  return t;
+}
+
+void Fusion::collect() {
+  std::vector<double> sigmas;
+  for (const auto& f : fixes_) {
+    FixOutcome& o = out_.fixes[f.input];
+    o.error = -residualOf(f);  // the factor's residual is the fused antenna less the fix
+    o.residual = o.error.norm();
+    o.slam_jitter = f.jitter;
+    o.slam_gap = f.gap;
+    o.std_dev = ownSigma(gnss_[f.input].std_dev, unknown_h_, unknown_v_);
+    o.weight = weightOf(f);
+    o.verdict = o.weight < kRejectWeight ? FixVerdict::kOutlier : FixVerdict::kUsed;
+    if (o.verdict == FixVerdict::kUsed) sigmas.push_back(f.sigma.x());
+  }
+  for (const auto& o : out_.fixes) {
+    switch (o.verdict) {
+      case FixVerdict::kUsed:
+        ++out_.used;
+        break;
+      case FixVerdict::kOutlier:
+        ++out_.outliers;
+        break;
+      case FixVerdict::kAboveThreshold:
+        ++out_.above_threshold;
+        break;
+      case FixVerdict::kExcluded:
+        ++out_.excluded;
+        break;
+      case FixVerdict::kOutsidePoses:
+        ++out_.outside;
+        break;
+    }
+  }
+  if (!sigmas.empty()) out_.median_std_h = median(std::move(sigmas));
+  if (unknown_h_ == kUnknownStdStart) {
+    out_.estimated_std_h = out_.estimated_std_v = std::numeric_limits<double>::quiet_NaN();
+  }
+  out_.time_offset = shift_ + dt_;
+  out_.time_offset_estimated = clock_.observable;
+  out_.time_offset_from_speed = clock_.offset;
+  out_.time_offset_speed_sigma = clock_.sigma;
+  out_.time_offset_sigma = offset_sigma_;
+  fusedPoses();
+}
+
+void Fusion::fusedPoses() {
+  out_.poses.resize(poses_.size());
+  std::size_t k = 0;
+  for (std::size_t i = 0; i < poses_.size(); ++i) {
+    while (k + 1 < keyframes_.size() && keyframes_[k + 1].pose <= i) ++k;
+    const Keyframe& key = keyframes_[k];
+    Eigen::Isometry3d rel = key.slam.inverse() * isometry(poses_[i]);
+    rel.translation() *= 1.0 + key.s;
+    const Eigen::Isometry3d t = keyframePose(key) * rel;
+    Pose& p = out_.poses[i];
+    p.stamp = poses_[i].stamp;
+    p.position = t.translation() + origin_;
+    p.orientation = Eigen::Quaterniond(t.linear()).normalized();
+  }
+}
+
+}  // namespace fusion_graph
+}  // namespace flexcloud

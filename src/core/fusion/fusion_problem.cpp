@@ -1,0 +1,158 @@
+// The fusion's Ceres problem and its solves: the graph, the stages of graduated non-convexity.
+#include <algorithm>
+
+#include "flexcloud/metrics.h"
+#include "fusion_graph.h"
+
+namespace flexcloud {
+namespace fusion_graph {
+
+std::unique_ptr<ceres::Problem> Fusion::makeProblem(std::size_t stride) {
+  ceres::Problem::Options options;
+  options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  auto problem = std::make_unique<ceres::Problem>(options);
+  for (auto& k : keyframes_) problem->AddParameterBlock(k.q, 4, &quaternion_);
+  addOdometry(*problem);
+  Keyframe& k0 = keyframes_.front();
+  problem->AddResidualBlock(
+      new ceres::AutoDiffCostFunction<ZeroPrior, 3, 3>(new ZeroPrior{3, 1e-3}), nullptr, k0.w);
+  problem->AddResidualBlock(
+      new ceres::AutoDiffCostFunction<ZeroPrior, 1, 1>(new ZeroPrior{1, 0.05}), nullptr, &k0.s);
+  problem->AddParameterBlock(&dt_, 1);
+  if (out_.time_offset_held) {
+    problem->SetParameterBlockConstant(&dt_);
+  } else if (clock_.observable) {
+    // A clock offset moves every fix along the track, and in a fit of positions a SLAM whose
+    // heading wanders more than its noise says can pass for one (0.08 s, 1 m along the
+    // track, on a drive without any). The speed profiles, which no rotation changes, set
+    // it; the fixes refine it within the profiles' uncertainty.
+    problem->AddResidualBlock(new ceres::AutoDiffCostFunction<OffsetPrior, 1, 1>(new OffsetPrior{
+                                  clock_.offset - shift_, std::max(kMinOffsetSigma, clock_.sigma)}),
+                              nullptr, &dt_);
+    // No bounds at max_time_offset here: with a bound on any block Ceres searches along
+    // every step, a tenth of the fusion's time on a2rl; solveAt holds the offset instead.
+  } else {
+    problem->SetParameterBlockConstant(&dt_);  // none asked for, or the speed too even
+  }
+  for (std::size_t j = 0; j < fixes_.size(); j += stride) {
+    Fix& f = fixes_[j];
+    if (heldOut(f)) continue;
+    Keyframe& k = keyframes_[f.keyframe];
+    problem->AddResidualBlock(new GnssCost(f.factor), loss_.get(), k.q, k.p, &k.s, &dt_);
+  }
+  return problem;
+}
+
+void Fusion::addOdometry(ceres::Problem& problem) {
+  const std::vector<double> jitter = keyframeJitter();
+  for (std::size_t i = 0; i + 1 < keyframes_.size(); ++i) {
+    Keyframe& a = keyframes_[i];
+    Keyframe& b = keyframes_[i + 1];
+    const Eigen::Isometry3d rel = a.slam.inverse() * b.slam;
+    const double d = std::max(0.01, rel.translation().norm());
+    // Where the SLAM jitters, it struggles (a2rl: its height jumps 0.7 m from pose to pose
+    // on a straight where it also leaves the RTK fixes by up to 0.9 m): there its path may
+    // bend by a share of its jitter per keyframe spacing of path, on top of its usual noise.
+    const double bend = kJitterBend * std::max(jitter[i], jitter[i + 1]) *
+                        std::sqrt(d / std::max(options_.keyframe_spacing, 1.0));
+    OdometryFactor f{rel.translation(), Eigen::Quaterniond(rel.linear()), d,
+                     std::hypot(noise_.translation * std::sqrt(d), bend) + 1e-3,
+                     noise_.rotation * std::sqrt(d) + 1e-6};
+    problem.AddResidualBlock(new OdometryCost(f), nullptr, a.q, a.p, a.w, &a.s, b.q, b.p);
+    const DriftFactor drift{noise_.rate * std::sqrt(d) + 1e-12,
+                            noise_.scale * std::sqrt(d) + 1e-12};
+    problem.AddResidualBlock(new DriftCost(drift), nullptr, a.w, &a.s, b.w, &b.s);
+  }
+}
+
+std::unique_ptr<ceres::Problem> Fusion::polish() {
+  auto full = makeProblem(1);
+  solveAt(*full, 0.0, kPolishIterations, kFinalTolerance);
+  return full;
+}
+
+double Fusion::squaredResidual(const Fix& f) const {
+  const Keyframe& k = keyframes_[f.keyframe];
+  double r[3];
+  f.factor(k.q, k.p, &k.s, &dt_, r);
+  return r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+}
+
+void Fusion::solveStages() {
+  std::vector<double> r0;
+  for (const auto& f : fixes_) r0.push_back(residualOf(f).norm());
+  double floor = std::max(1.0, median(std::move(r0)));
+  // The stages decide which fixes are outliers; a few fixes per keyframe decide it as well as
+  // all of them, at a fraction of the time on long drives. The last stages use every fix.
+  const std::size_t stride = std::max<std::size_t>(1, fixes_.size() / (3 * keyframes_.size()));
+  // A floor below every fix's own std-dev weights them as the full problem does: the
+  // coarse stages end there.
+  double tightest = std::numeric_limits<double>::infinity();
+  for (const auto& f : fixes_) tightest = std::min(tightest, f.own.minCoeff());
+  const double last = std::max(options_.gnss_std_floor, tightest);
+  {
+    const auto coarse = makeProblem(stride);
+    for (; floor > last; floor /= 5.0) solveAt(*coarse, floor, 10);
+  }
+  const auto full = makeProblem(1);
+  solveAt(*full, 0.0, 10);
+  for (int round = 0; round < 3 && estimateUnknownStd(); ++round) solveAt(*full, 0.0, 20);
+}
+
+void Fusion::solveAt(ceres::Problem& problem, double floor, int iterations, double tolerance) {
+  cancel_.check("fusion");
+  for (auto& f : fixes_) f.sigma = f.own.cwiseMax(floor);
+  ceres::Solver::Options o;
+  o.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  o.max_num_iterations = iterations;
+  o.num_threads = solver_threads_;
+  o.logging_type = ceres::SILENT;
+  o.function_tolerance = tolerance;
+  // Every stage starts near its solution (the previous stage's), where the problem is close
+  // to quadratic: Ceres's default first trust region (1e4) held the steps back for up to 10
+  // iterations per stage while it grew threefold per step; this one lets the first step be
+  // nearly Gauss-Newton (scripts/accuracy.sh: the same figures within 0.02 m; a one-hour
+  // drive's fusion 1.7 s before, 1.0 s after).
+  o.initial_trust_region_radius = 1e8;
+
+  ceres::Solver::Summary summary;
+  ceres::Solve(o, &problem, &summary);
+  int solves = 1;
+  if (clampOffset()) {
+    // Beyond the range asked for: the offset held at its bound, the rest solved again.
+    problem.SetParameterBlockConstant(&dt_);
+    ceres::Solve(o, &problem, &summary);
+    problem.SetParameterBlockVariable(&dt_);
+    ++solves;
+  }
+  if (held_out_ < 0) {
+    ++out_.stages;
+    out_.solves += solves;
+  }
+}
+
+bool Fusion::clampOffset() {
+  if (!clock_.observable) return false;
+  const double bound = options_.max_time_offset;
+  const double offset = shift_ + dt_;
+  // Compared as the sum: (shift_ + dt_) - shift_ need not give dt_ back to the last bit, and
+  // taken for a move it redid every solve.
+  if (std::abs(offset) <= bound) return false;
+  dt_ = std::clamp(offset, -bound, bound) - shift_;
+  return true;
+}
+
+Vec3 Fusion::residualOf(const Fix& f) const {
+  const Keyframe& k = keyframes_[f.keyframe];
+  double r[3];
+  f.factor(k.q, k.p, &k.s, &dt_, r);
+  return Vec3(r[0], r[1], r[2]).cwiseProduct(f.sigma);
+}
+
+double Fusion::weightOf(const Fix& f) const {
+  return GemanMcClure(options_.outlier_threshold).weight(squaredResidual(f));
+}
+
+}  // namespace fusion_graph
+}  // namespace flexcloud
