@@ -68,8 +68,8 @@ struct LeaveOutScore {
 /// The GNSS is not the truth: a fix both methods miss by metres is a multipath or an outlier,
 /// and a method that follows such fixes predicts their neighbours better than one that is
 /// right. So the GNSS control points are used only where they are closer to the held-out
-/// fixes in both the median and the credible MAE (beyond a small tolerance): where the
-/// fusion's model fails the drive, not where the GNSS errs.
+/// fixes in the credible MAE and no further in the median (each beyond a small tolerance):
+/// where the fusion's model fails the drive, not where the GNSS errs.
 struct LeaveOutChoice {
   int folds = 0;
   double block = 0.0;     ///< s
