@@ -226,33 +226,36 @@ void matchGnss(const Params& params, GeoreferenceResult& r) {
 
 namespace {
 
-/// A stretch of fixes the fusion rejected although they claimed RTK precision.
-struct FalseRtk {
+/// A stretch of consecutive fixes the fusion rejected.
+struct RejectedStretch {
   double begin = 0.0, end = 0.0, worst = 0.0;
   std::size_t fixes = 0;
 };
 
-/// Stretches of at least kFalseRtkSeconds and kFalseRtkFixes consecutive fixes (of those that
-/// took part) that the fusion rejected while their std-dev claimed under kRtkStd: multipath or
-/// a false RTK fix, the longest first.
-std::vector<FalseRtk> falseRtkStretches(const FusionResult& f) {
-  constexpr double kRtkStd = 0.05, kFalseRtkSeconds = 3.0;
-  constexpr std::size_t kFalseRtkFixes = 5;
+/// Stretches of at least kStretchSeconds and kStretchFixes consecutive fixes (of those that
+/// took part) that the fusion rejected, the longest first: with `given`, those whose std-dev
+/// came with them and claimed under kRtkStd (multipath or a false RTK fix); without, those
+/// that came without one (their std-dev estimated, nothing claimed).
+std::vector<RejectedStretch> rejectedStretches(const FusionResult& f, bool given) {
+  constexpr double kRtkStd = 0.05, kStretchSeconds = 3.0;
+  constexpr std::size_t kStretchFixes = 5;
   std::vector<const FixOutcome*> fixes;
   for (const auto& o : f.fixes) {
     if (o.verdict == FixVerdict::kUsed || o.verdict == FixVerdict::kOutlier) fixes.push_back(&o);
   }
   std::sort(fixes.begin(), fixes.end(),
             [](const FixOutcome* a, const FixOutcome* b) { return a->stamp < b->stamp; });
-  std::vector<FalseRtk> out;
-  FalseRtk run;
+  std::vector<RejectedStretch> out;
+  RejectedStretch run;
   auto close = [&] {
-    if (run.fixes >= kFalseRtkFixes && run.end - run.begin >= kFalseRtkSeconds) out.push_back(run);
-    run = FalseRtk{};
+    if (run.fixes >= kStretchFixes && run.end - run.begin >= kStretchSeconds) out.push_back(run);
+    run = RejectedStretch{};
   };
   for (const FixOutcome* o : fixes) {
-    const bool claims_rtk = o->std_dev.allFinite() && o->std_dev.head<2>().norm() < kRtkStd;
-    if (o->verdict != FixVerdict::kOutlier || !claims_rtk) {
+    const bool kind =
+        given ? o->std_given && o->std_dev.allFinite() && o->std_dev.head<2>().norm() < kRtkStd
+              : !o->std_given;
+    if (o->verdict != FixVerdict::kOutlier || !kind) {
       close();
       continue;
     }
@@ -262,9 +265,27 @@ std::vector<FalseRtk> falseRtkStretches(const FusionResult& f) {
     ++run.fixes;
   }
   close();
-  std::sort(out.begin(), out.end(),
-            [](const FalseRtk& a, const FalseRtk& b) { return a.end - a.begin > b.end - b.begin; });
+  std::sort(out.begin(), out.end(), [](const RejectedStretch& a, const RejectedStretch& b) {
+    return a.end - a.begin > b.end - b.begin;
+  });
   return out;
+}
+
+/// The three longest rejected stretches of a kind, one warning each; `what` follows the
+/// stretch's span and fix count.
+void warnRejectedStretches(const FusionResult& f, bool given, const std::string& what,
+                           std::vector<std::string>& out) {
+  const std::vector<RejectedStretch> runs = rejectedStretches(f, given);
+  for (std::size_t k = 0; k < runs.size() && k < 3; ++k) {
+    std::ostringstream s;
+    s.setf(std::ios::fixed);
+    s.precision(1);
+    s << "GNSS from " << runs[k].begin << " to " << runs[k].end << " s (" << runs[k].fixes
+      << " fixes" << (given ? ")" : ", no std-dev given)") << " up to " << runs[k].worst
+      << " m off the fused trajectory" << what;
+    if (k == 2 && runs.size() > 3) s << " (and " << runs.size() - 3 << " more such stretches)";
+    out.push_back(s.str());
+  }
 }
 
 }  // namespace
@@ -339,18 +360,15 @@ std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Param
     out.push_back(s.str());
   }
   if (r.fusion) {
-    const std::vector<FalseRtk> runs = falseRtkStretches(*r.fusion);
-    for (std::size_t k = 0; k < runs.size() && k < 3; ++k) {
-      std::ostringstream s;
-      s.setf(std::ios::fixed);
-      s.precision(1);
-      s << "GNSS from " << runs[k].begin << " to " << runs[k].end << " s (" << runs[k].fixes
-        << " fixes) claimed RTK precision (std-dev under 5 cm) while up to " << runs[k].worst
-        << " m off the fused trajectory: multipath or a false RTK fix, not a SLAM error; "
-           "those fixes were left out";
-      if (k == 2 && runs.size() > 3) s << " (and " << runs.size() - 3 << " more such stretches)";
-      out.push_back(s.str());
-    }
+    warnRejectedStretches(*r.fusion, true,
+                          " though their std-dev claimed RTK precision (under 5 cm): multipath "
+                          "or a false RTK fix, not a SLAM error; those fixes were left out",
+                          out);
+    warnRejectedStretches(*r.fusion, false,
+                          ", which keeps the SLAM's shape there; those fixes were left out. "
+                          "Without a std-dev either may be wrong (multipath, GNSS drawn "
+                          "through an outage, or a SLAM that bent): check that stretch",
+                          out);
   }
   return out;
 }

@@ -377,9 +377,11 @@ std::string fixesText(const GeoreferenceResult& r) {
       "# every GNSS fix the fusion judged: stamp (GNSS clock) x y z (enu) residual_m weight "
       "verdict (used, outlier, above_std_threshold, excluded_range, outside_poses) std_h_m "
       "std_v_m (its own: reported, or estimated where not given) slam_jitter_h_m "
-      "slam_jitter_v_m slam_gap_m (the SLAM's at its stamp, added to its std-dev in the fusion)\n";
+      "slam_jitter_v_m slam_gap_m (the SLAM's at its stamp, added to its std-dev in the fusion) "
+      "std_source (given: with the fix or by default_std_dev; estimated: by the fusion; none: "
+      "took no part and gave none)\n";
   if (!r.fusion) return text;
-  text.reserve(text.size() + r.fusion->fixes.size() * 112);
+  text.reserve(text.size() + r.fusion->fixes.size() * 122);
   const auto field = [&text](double v, int decimals) {
     text += ' ';
     appendFixed(text, v, decimals);
@@ -394,7 +396,7 @@ std::string fixesText(const GeoreferenceResult& r) {
          {o.std_dev.x(), o.std_dev.z(), o.slam_jitter.x(), o.slam_jitter.z(), o.slam_gap}) {
       field(v, 4);
     }
-    text += '\n';
+    text += o.std_given ? " given\n" : o.std_dev.allFinite() ? " estimated\n" : " none\n";
   }
   return text;
 }

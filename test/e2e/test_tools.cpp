@@ -118,7 +118,8 @@ TEST_F(Tools, BagWithMapGivesEveryOutputAndAccurateMap) {
     ++lines;
     std::istringstream fields(line);
     std::vector<std::string> f{std::istream_iterator<std::string>(fields), {}};
-    ASSERT_EQ(f.size(), 12u) << line;
+    ASSERT_EQ(f.size(), 13u) << line;
+    EXPECT_EQ(f[12], "given") << line;  // every simulated fix has its covariance
     if (f[6] != "used") continue;
     ++used;
     // Its own std-dev (the simulated receiver's, RTK), the SLAM's jitter (none on a simulated

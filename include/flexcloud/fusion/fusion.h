@@ -43,6 +43,9 @@ struct FixOutcome {
   /// Its own 1-sigma std-dev (reported, or estimated where not given; floored), ENU, m. For a
   /// fix that took no part: the reported one, NaN where none was given.
   Eigen::Vector3d std_dev = Eigen::Vector3d::Zero();
+  /// Whether the std-dev came with the fix (from the receiver, or default_std_dev); false where
+  /// the fusion estimated it.
+  bool std_given = false;
   /// The SLAM's pose-to-pose error at its stamp (1-sigma, x = y horizontal, z vertical), m:
   /// added to std_dev in the fusion's weight of the fix.
   Eigen::Vector3d slam_jitter = Eigen::Vector3d::Zero();

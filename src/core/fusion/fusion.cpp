@@ -75,6 +75,7 @@ void Fusion::selectFixes() {
     o.residual = std::numeric_limits<double>::quiet_NaN();
     const bool known = g.std_dev.allFinite();
     o.std_dev = known ? g.std_dev : Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+    o.std_given = known;
     const double t = g.stamp + shift_;
     if (t < first || t > last) {
       o.verdict = FixVerdict::kOutsidePoses;
