@@ -364,11 +364,12 @@ std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Param
                           " though their std-dev claimed RTK precision (under 5 cm): multipath "
                           "or a false RTK fix, not a SLAM error; those fixes were left out",
                           out);
-    warnRejectedStretches(*r.fusion, false,
-                          ", which keeps the SLAM's shape there; those fixes were left out. "
-                          "Without a std-dev either may be wrong (multipath, GNSS drawn "
-                          "through an outage, or a SLAM that bent): check that stretch",
-                          out);
+    warnRejectedStretches(
+        *r.fusion, false,
+        ", which keeps the SLAM's shape there; those fixes were left out. Without a std-dev "
+        "either may be wrong (multipath, GNSS drawn through an outage, or a SLAM that bent): "
+        "check that stretch (with fusion: false the GNSS is followed)",
+        out);
   }
   return out;
 }
