@@ -67,8 +67,10 @@ if [ "${sanitize}" = 1 ]; then
   # The clock and revisit figures (Clock.*, Revisits.*) are accuracy bounds of the suite's
   # compiler: the sanitizer's compiler rounds differently, and on two drives the run takes
   # another branch (urban_keyframes_1hz seed 2: clock off by 41 ms instead of 6 ms). The second
-  # real drive (Monza.*) is left to the suite like A2rl.*.
+  # real drive (Monza.*) is left to the suite like A2rl.*, and so is the choice of a fusion held
+  # far too stiff (SimulatedDrive.AFusionHeldFarTooStiff*: nine runs, 47 s under ASan).
   SANITIZE_FILTER="-Targets/Accuracy.*:AccuracyMore.*:SimulatedDrive.*AgainstTheTruth:A2rl.*"
+  SANITIZE_FILTER+=":SimulatedDrive.AFusionHeldFarTooStiff*"
   SANITIZE_FILTER+=":Tools.AsciiMaps*:Tools.CompressedMaps*:Scenarios/SlamFailures.*"
   SANITIZE_FILTER+=":Clock.*:Revisits.*:Monza.*"
   for t in flexcloud_unit_tests flexcloud_e2e_tests; do

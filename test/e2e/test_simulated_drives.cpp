@@ -84,11 +84,16 @@ TEST(SimulatedDrive, OpenRouteMapAgainstTheTruth) {
 }
 
 /// A SLAM held a hundred times stiffer than it is (its noise set that much too low, as a user who
-/// misreads the units would): the fusion rejects a third of the RTK fixes and bends the map by
-/// decimetres, while its median at the held-out fixes stays as good as the GNSS control
-/// points'. The leave-out sees the credible MAE and hands over to them; the map comes out
-/// against the truth as `fusion: false` puts it, less than half the fusion's error.
+/// misreads the units would): the fusion rejects a third of the RTK fixes and, depending on
+/// where its stages settle, bends the map by decimetres (seeds 1-3 with this compiler) or
+/// finds the right shape all the same (seeds 2-3 under the sanitizers' compiler, which rounds
+/// otherwise). Where it bent, its median at the held-out fixes stays as good as the GNSS
+/// control points' while its credible MAE is far worse: the leave-out hands over to them. So
+/// the map as chosen is never further from the truth than the better of the two methods by
+/// more than a centimetre, and where the fusion is twice as far off as `fusion: false`, the
+/// GNSS control points were chosen.
 TEST(SimulatedDrive, AFusionHeldFarTooStiffLosesTheLeaveOutToTheGnssControlPoints) {
+  int handed_over = 0;
   for (std::uint64_t seed : {1, 2, 3}) {
     sim::SimParams sp;
     sp.seed = seed;
@@ -100,24 +105,38 @@ TEST(SimulatedDrive, AFusionHeldFarTooStiffLosesTheLeaveOutToTheGnssControlPoint
     p.slam_drift_noise *= 0.01;
     Params forced = p;
     forced.leave_out_folds = 0;  // the fusion whatever the leave-out says
+    Params simple = p;
+    simple.fusion = false;
     const GeoreferenceResult chosen = georeference(test::inputOf(d), p);
     const GeoreferenceResult fused = georeference(test::inputOf(d), forced);
+    const GeoreferenceResult gnss = georeference(test::inputOf(d), simple);
     ASSERT_TRUE(chosen.leave_out.has_value()) << "seed " << seed;
-    EXPECT_EQ(chosen.method, Method::kGnss) << chosen.leave_out->reason << ", seed " << seed;
     EXPECT_EQ(fused.method, Method::kFusion) << "seed " << seed;
+    const LeaveOutScore& f = chosen.leave_out->candidates[0];
+    const LeaveOutScore& g = chosen.leave_out->candidates[1];
     const pcl::PCLPointCloud2 truth = sim::truthCloud(d.map);
     const auto mapError = [&](const GeoreferenceResult& r) {
       pcl::PCLPointCloud2 map = sim::slamCloud(d.map);
       EXPECT_EQ(warpCloud(map, *r.sheet, 2).points, sp.map_points);
       return compareClouds(map, truth, [](const Eigen::Vector3d& x) { return x; }).rmse;
     };
-    const double a = mapError(chosen), b = mapError(fused);
-    std::printf("too stiff, seed %lu: map RMSE %.3f m as chosen, %.3f m by the fusion\n",
-                static_cast<unsigned long>(seed), a, b);
-    // Seeds 1-3 on a fresh clone: 0.116-0.172 m as chosen, 0.424-0.664 m by the fusion.
+    const double a = mapError(chosen), b = mapError(fused), c = mapError(gnss);
+    std::printf(
+        "too stiff, seed %lu: leave-out median / credible MAE fusion %.3f / %.3f m, GNSS control "
+        "points %.3f / %.3f m: %s; map RMSE %.3f m as chosen, %.3f m by the fusion, %.3f m by "
+        "fusion: false\n",
+        static_cast<unsigned long>(seed), f.median, f.credible_mae, g.median, g.credible_mae,
+        toString(chosen.method).c_str(), a, b, c);
+    // Seeds 1-3 on a fresh clone: 0.116-0.172 m as chosen (the GNSS control points each time),
+    // 0.424-0.664 m by the fusion.
     EXPECT_LT(a, kSlack * 0.172) << "seed " << seed;
-    EXPECT_LT(2.0 * a, b) << "seed " << seed;
+    EXPECT_LT(a, std::min(b, c) + 0.01) << "seed " << seed;
+    if (b > 2.0 * c) {
+      EXPECT_EQ(chosen.method, Method::kGnss) << chosen.leave_out->reason << ", seed " << seed;
+    }
+    handed_over += chosen.method == Method::kGnss ? 1 : 0;
   }
+  EXPECT_GE(handed_over, 1);
 }
 
 TEST(SimulatedDrive, OutagesNoFixStopsAndClockOffsetAreHandled) {
