@@ -137,6 +137,9 @@ std::string validate(const SimParams& p) {
       "gnss_rate must be in (0, 1000] Hz");
   req(p.gnss_noise_h >= 0.0 && p.gnss_noise_v >= 0.0 && p.outage_noise >= 0.0 && p.outage_std > 0.0,
       "GNSS noise and std-devs must not be negative");
+  req(std::isfinite(p.gnss_late_s) && std::isfinite(p.gnss_early_s) && p.gnss_late_s >= 0.0 &&
+          p.gnss_early_s >= 0.0,
+      "gnss_late_s and gnss_early_s must be finite and not negative");
   req(std::isfinite(p.clock_offset) && std::abs(p.clock_offset) <= 100.0,
       "clock_offset must be in [-100, 100] s");
   req(p.map_points <= 200000000, "map_points must be at most 2e8");
@@ -213,7 +216,7 @@ SimDrive simulateDrive(const SimParams& p) {
     const Eigen::Vector3d pos = poseAt(motion.arcAt(t)) * p.lever_arm + noise + e.error;
     RawFix f;
     f.fix.stamp = p.start_stamp + t + p.clock_offset;
-    f.has_fix = !inAny(p.no_fix, t);
+    f.has_fix = !inAny(p.no_fix, t) && t >= p.gnss_late_s && t <= duration - p.gnss_early_s;
     const Datum g = enu.toGeodetic(pos);
     f.fix.lat = f.has_fix ? g.lat : 0.0;
     f.fix.lon = f.has_fix ? g.lon : 0.0;

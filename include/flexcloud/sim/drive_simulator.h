@@ -58,6 +58,10 @@ struct SimParams {
   double outage_std = 2.0;    ///< m reported
   /// Time ranges (s from the start) in which the receiver reports NO_FIX.
   std::vector<TimeRange> no_fix;
+  /// The receiver's first fix this long after the SLAM's first pose (a cold start, RTK still
+  /// converging, a car park) and its last this long before the SLAM's last (s); NO_FIX between.
+  double gnss_late_s = 0.0;
+  double gnss_early_s = 0.0;
   /// GNSS clock minus SLAM clock (s): GNSS stamps are shifted by this.
   double clock_offset = 0.0;
   /// The errors of urban GNSS beyond the noise above (all off by default).
