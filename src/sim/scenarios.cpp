@@ -146,9 +146,9 @@ const std::vector<std::string>& scenarioNames() {
 
 const std::vector<std::string>& failureScenarioNames() {
   static const std::vector<std::string> names = {
-      "open_varying_drift",  "loop_closures", "open_height_drift", "race_track",
-      "urban_keyframes_1hz", "city_ins_10hz", "loop_unclosed",     "figure_eight",
-      "open_gnss_late"};
+      "open_varying_drift", "loop_closures",       "open_height_drift",
+      "race_track",         "urban_keyframes_1hz", "city_ins_10hz",
+      "loop_unclosed",      "figure_eight",        "open_gnss_late"};
   return names;
 }
 

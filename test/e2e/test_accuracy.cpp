@@ -86,7 +86,7 @@ TEST(AccuracyMore, UrbanGnssWithoutCovarianceIsEstimated) {
   const Outcome f = run(d, Params{});
   std::printf("loop_urban_nocov seed 2: map RMSE %.3f m, estimated std-dev %.3f m (h) %.3f (v)\n",
               f.map.all.rmse, f.result.fusion->estimated_std_h, f.result.fusion->estimated_std_v);
-  EXPECT_LE(f.map.all.rmse, kSlack * 0.050);          // recorded 0.050 m
+  EXPECT_LE(f.map.all.rmse, kSlack * 0.050);  // recorded 0.050 m
   // The simulator's white noise of these fixes (its multipath, float fixes and outliers stay
   // out of the estimate): 0.017 m estimated on a fresh clone, against 0.015 m.
   const double noise = sim::scenario("loop_urban_nocov", 2, 50000).gnss_noise_h;
