@@ -154,9 +154,9 @@ TEST(Revisits, EachPassKeepsItsOwnCorrection) {
 /// SLAM's last: the sheet follows the fused trajectory there too (no pose further from the truth
 /// than the fused trajectory's worst by more than 10 % and 5 cm: 7.98 against 7.87 m on seed 1,
 /// 9.40 against 8.89 m where the sanitizers' compiler simulates another drive; control points
-/// at the drive's ends), instead of leaving the first
-/// and last 300 m to the enclosing cuboid (seed 2: 25.4 m off the truth at worst where the
-/// fused trajectory is 1.07 m, the map 3.36 m off). The map is closer to the truth than
+/// at the drive's ends), instead of leaving the first and last 300 m to the enclosing cuboid
+/// (seed 2: 25.4 m off the truth at worst where the fused trajectory is 1.07 m, the map 3.36 m
+/// off). The map is closer to the truth than
 /// `fusion: false`'s on every seed (1.06 / 0.19 / 2.35 against 1.44 / 4.43 / 5.29 m).
 TEST(GnssLateAndEarly, TheSheetFollowsTheFusedTrajectoryWhereNoFixSpeaks) {
   for (std::uint64_t seed : {1, 2, 3}) {
