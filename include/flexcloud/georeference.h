@@ -36,7 +36,6 @@ struct StageSeconds {
   double fusion = 0.0;
   double control_points = 0.0;  ///< selection, refinement and the sheet
   double trajectory_warp = 0.0;
-  double leave_out = 0.0;  ///< the choice of method (the fusion's folds are in `fusion`)
 };
 
 /// The method whose control points made the sheet.
@@ -46,38 +45,6 @@ enum class Method {
 };
 
 std::string toString(Method m);
-
-/// One method's error at the fixes held out of its runs.
-struct LeaveOutScore {
-  Method method = Method::kFusion;
-  bool available = true;  ///< false: the method could not run (`note` says why)
-  ErrorStats error;       ///< at the held-out fixes both methods predicted
-  double median = 0.0;    ///< m, of the same
-  /// MAE over the fixes at least one method predicted within a few times the better median
-  /// (LeaveOutChoice): a fix both miss by far is an error of the GNSS, not of the methods.
-  double credible_mae = 0.0;
-  std::string note;
-  /// Per fix (GeoreferenceResult::gnss.points of the fusion's run), its distance from what
-  /// the run without its fold put at its instant, m; NaN where none was predicted.
-  std::vector<double> deviation;
-};
-
-/// The choice of method by leave-out (Params::leave_out_folds): the fixes are cut into
-/// stretches of leave_out_block seconds dealt to the folds in turn; each fold is held out of a
-/// run of each method, and the fixes are compared with what that run puts at their instants.
-/// The GNSS is not the truth: a fix both methods miss by metres is a multipath or an outlier,
-/// and a method that follows such fixes predicts their neighbours better than one that is
-/// right. So the GNSS control points are used only where they are closer to the held-out
-/// fixes in the credible MAE and no further in the median (each beyond a small tolerance):
-/// where the fusion's model fails the drive, not where the GNSS errs.
-struct LeaveOutChoice {
-  int folds = 0;
-  double block = 0.0;     ///< s
-  double credible = 0.0;  ///< m, the distance within which a fix counts as credible
-  std::vector<LeaveOutScore> candidates;
-  Method winner = Method::kFusion;
-  std::string reason;
-};
 
 /// Control points of different passes over the same place whose target offset (fused
 /// trajectory, or GNSS without fusion) disagrees with their SLAM offset: the SLAM map holds that
@@ -104,10 +71,9 @@ struct GeoreferenceResult {
   double scale = 1.0;  ///< scale of the similarity fit (reported, not applied)
   /// The fused trajectory and the fate of every fix (with params.fusion).
   std::optional<FusionResult> fusion;
-  /// Whose control points made the sheet, and the leave-out that chose it (with params.fusion
-  /// and leave_out_folds of 2 or more).
+  /// Whose control points made the sheet: the fused trajectory's, or with fusion false the
+  /// GNSS at the poses'.
   Method method = Method::kGnss;
-  std::optional<LeaveOutChoice> leave_out;
   /// The clock offset applied to the GNSS: SLAM clock minus GNSS clock, s (gnss_time_offset
   /// and the estimate on top of it: the fusion's, or without the fusion the speed profiles'),
   /// and its 1-sigma (NaN where not estimated).

@@ -49,8 +49,6 @@ struct Params {
   double lever_arm_y;
   double lever_arm_z;
   // The choice of method by leave-out.
-  int leave_out_folds;
-  double leave_out_block;
   // Keyframe interpolation.
   InterpolationMode interpolation;
   double min_spacing;

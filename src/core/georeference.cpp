@@ -10,7 +10,6 @@
 
 #include "flexcloud/input/interpolation.h"
 #include "flexcloud/metrics.h"
-#include "fusion/leave_out.h"
 #include "position_grid.h"
 #include "sheet/revisits.h"
 #include "sheet/sheet_builder.h"
@@ -444,12 +443,12 @@ void estimateClockWithoutFusion(const Params& params, GeoreferenceResult& r) {
 }
 
 /// Control points and sheet from the fused trajectory, with points beside and above it.
-void sheetFromFusion(const Params& params, const CancelToken& cancel, const LeaveOutFolds& folds,
-                     GeoreferenceResult& r, StageSeconds& seconds, Stopwatch& watch) {
+void sheetFromFusion(const Params& params, const CancelToken& cancel, GeoreferenceResult& r,
+                     StageSeconds& seconds, Stopwatch& watch) {
   const Alignment start = robustAlignment(r.poses, r.gnss_at_pose, params);
   seconds.alignment = watch.lap();
   r.fusion =
-      fuseTrajectory(r.poses, r.gnss.points, start.T_enu_map, fusionOptions(params), cancel, folds);
+      fuseTrajectory(r.poses, r.gnss.points, start.T_enu_map, fusionOptions(params), cancel);
   r.method = Method::kFusion;
   r.clock_offset = params.gnss_time_offset + r.fusion->time_offset;
   r.clock_offset_sigma = r.fusion->time_offset_estimated ? r.fusion->time_offset_sigma
@@ -467,13 +466,10 @@ void sheetFromFusion(const Params& params, const CancelToken& cancel, const Leav
   r.cuboid_enu = makeCuboid(r.aligned, targets, sheetOptions(params));
   r.control_points = chooseControlPoints(r.poses, targets, usable, r.T_enu_map, r.cuboid_enu,
                                          sheetOptions(params));
-  // Where the poses took most of their position from the fixes, the SLAM's orientation there
-  // is no better than its position: no points beside those control points.
-  constexpr double kSteadyGain = 0.5;
+  // Where the SLAM jumped, its orientation there is no better than its position: no points
+  // beside those control points.
   std::vector<bool> steady(r.poses.size());
-  for (std::size_t i = 0; i < steady.size(); ++i) {
-    steady[i] = r.fusion->detail_gain[i] <= kSteadyGain;
-  }
+  for (std::size_t i = 0; i < steady.size(); ++i) steady[i] = !r.fusion->jumped[i];
   // The sheet follows the fused trajectory to its first and last poses, also where no fix
   // speaks (a receiver that starts late or stops early): the fused trajectory carries the SLAM
   // on there with the drift it showed at the nearest fixes, where a sheet left to its cuboid
@@ -506,12 +502,8 @@ GeoreferenceResult georeference(const DriveInput& input, const Params& params,
   matchGnss(params, r);
   r.seconds.interpolation = watch.lap();
   if (params.fusion) {
-    const LeaveOutFolds folds = leaveOutFolds(r.gnss.points, params);
-    sheetFromFusion(params, cancel, folds, r, r.seconds, watch);
+    sheetFromFusion(params, cancel, r, r.seconds, watch);
     r.seconds.control_points = watch.lap();
-    chooseByLeaveOut(input, params, folds, cancel, r);
-    watch.lap();
-    if (r.method == Method::kGnss) return r;  // the GNSS control points' run, complete
   } else {
     estimateClockWithoutFusion(params, r);
     sheetFromGnss(params, r);

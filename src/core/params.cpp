@@ -95,12 +95,6 @@ ParamTable<P> makeTable() {
                  "GNSS antenna in the body frame of the poses, left"),
       realRow<P>("lever_arm_z", &P::lever_arm_z, 0.0, -10, 10, "m",
                  "GNSS antenna in the body frame of the poses, up"),
-      intRow<P>("leave_out_folds", &P::leave_out_folds, 3, 0, 20, "",
-                "Folds of the leave-out that chooses between the fusion and the GNSS control "
-                "points (the better on fixes held out of the run is used; 0 or 1: the fusion "
-                "always)"),
-      realRow<P>("leave_out_block", &P::leave_out_block, 25.0, 0.0, 3600, "s",
-                 "Length of the stretches of fixes the leave-out holds out together"),
       interpolationRow(),
       realRow<P>("min_spacing", &P::min_spacing, 1.0, 0.0, 100, "m",
                  "Minimum distance between the GNSS points that support the spline", live),

@@ -77,27 +77,18 @@ json fusionJson(const FusionResult& f) {
           {"slam_jitter_v_m", f.slam_jitter_v},
           {"poses_moved_to_fixes", f.detail_poses},
           {"largest_move_to_fixes_m", f.detail_max_shift},
+          {"precise_fixes",
+           {{"fixes", f.follow.fixes},
+            {"slam_short_term_q_h_m2_per_m", f.follow.q_h},
+            {"slam_short_term_q_v_m2_per_m", f.follow.q_v},
+            {"slam_excess_m", f.follow.excess},
+            {"slam_jumps", f.follow.jumps},
+            {"taken_back", f.follow.taken_back},
+            {"kept_out_too_far", f.follow.locked},
+            {"rejected", f.follow.rejected}}},
           {"stages", f.stages},
           {"solves", f.solves},
           {"seconds", f.seconds}};
-}
-
-json leaveOutJson(const LeaveOutChoice& c) {
-  json candidates = json::array();
-  for (const auto& s : c.candidates) {
-    candidates.push_back({{"method", toString(s.method)},
-                          {"available", s.available},
-                          {"mae_m", s.error.mae},
-                          {"max_m", s.error.max},
-                          {"rmse_m", s.error.rmse},
-                          {"median_m", s.median},
-                          {"credible_mae_m", s.credible_mae},
-                          {"fixes", s.error.count},
-                          {"note", s.note}});
-  }
-  return {
-      {"folds", c.folds},         {"block_s", c.block},           {"credible_within_m", c.credible},
-      {"candidates", candidates}, {"winner", toString(c.winner)}, {"reason", c.reason}};
 }
 
 /// The clocks: what the trajectories are stamped with, and the offset to the GNSS's.
@@ -110,6 +101,13 @@ json clockJson(const GeoreferenceResult& r) {
     j["estimated"] = r.fusion->time_offset_estimated;
     j["from_speed_profiles_s"] = r.fusion->time_offset_from_speed;
     j["from_speed_profiles_sigma_s"] = finiteOrNull(r.fusion->time_offset_speed_sigma);
+    const ClockEstimate& c = r.fusion->clock;
+    j["from_heading_profiles_s"] = finiteOrNull(c.heading.observable ? c.heading.offset : NAN);
+    j["from_heading_profiles_sigma_s"] = finiteOrNull(c.heading.sigma);
+    j["from_profiles_s"] = c.offset;
+    j["from_profiles_sigma_s"] = finiteOrNull(c.sigma);
+    j["profiles_disagree"] = c.disagree;
+    if (!c.reason.empty()) j["why_not_estimated"] = c.reason;
     j["from_positions_s"] = r.fusion->time_offset_from_positions;
     j["held_at_speed_profiles"] = r.fusion->time_offset_held;
   } else if (r.speed_clock) {
@@ -284,7 +282,6 @@ std::string reportJson(const GeoreferenceResult& r, const Params& params, const 
                   {"rubbersheet", stats(r.metrics_rubbersheet)}};
   j["method"] = toString(r.method);
   j["clock"] = clockJson(r);
-  if (r.leave_out) j["leave_out"] = leaveOutJson(*r.leave_out);
   if (r.fusion) {
     if (r.method == Method::kFusion) j["metrics"]["rubbersheet_vs_fused"] = stats(r.metrics_fused);
     j["fusion"] = fusionJson(*r.fusion);
@@ -303,7 +300,6 @@ std::string reportJson(const GeoreferenceResult& r, const Params& params, const 
                   {"alignment", s.alignment},
                   {"control_points", s.control_points},
                   {"fusion", s.fusion},
-                  {"leave_out", s.leave_out},
                   {"trajectory_warp", s.trajectory_warp},
                   {"map_read", map ? map->read_seconds : 0.0},
                   {"map_location_grid", map ? map->grid_seconds : 0.0},

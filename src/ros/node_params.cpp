@@ -193,7 +193,6 @@ const std::map<std::string, std::string>& yamlHeadings() {
       {"datum_lat", "The ENU datum; not set: the first valid fix."},
       {"default_std_dev", "GNSS input."},
       {"fusion", "Fusion of SLAM and GNSS before the control points are chosen."},
-      {"leave_out_folds", "The choice between the fusion and the GNSS control points."},
       {"interpolation", "Keyframe interpolation: the GNSS at the pose stamps."},
       {"control_points", "Control points."},
       {"beside_distance", "Control points beside and above the trajectory."},

@@ -48,7 +48,7 @@ markdown table (doc/BENCHMARKS.md).
   --skip-tool                 leave out the whole-tool runs
   --real DIR                  also a real drive (slam_poses_tum.txt, gnss_local_at_poses.txt;
                               scripts/benchmark.sh passes ../shared/data/a2rl where it is):
-                              the pipeline without a map, the fusion and the leave-out apart
+                              the pipeline without a map and the fusion apart
   --city N                    also a city-size map of N points (default 100000000; 0: none) in
                               random order, 200 control points: the whole tool against a
                               user-space copy of the file (alternating, each after a sync, the
@@ -505,8 +505,8 @@ void oneHourDrive(const Options& o) {
       sim::trajectoryTruthError(r.rubbersheet, d.truth).rmse);
 }
 
-/// The pipeline without a map on a real drive, defaults: the whole, the fusion (its leave-out
-/// folds included) and the choice of method by leave-out.
+/// The pipeline without a map on a real drive, defaults: the whole, the fusion and the control
+/// points.
 void realDrive(const Options& o) {
   DriveInput in;
   in.poses = readTumFile(o.real + "/slam_poses_tum.txt");
@@ -515,11 +515,9 @@ void realDrive(const Options& o) {
   const auto& t = r.seconds;
   std::printf(
       "| - | pipeline without map, real drive %s (%zu poses, %zu fixes), defaults | 200 | %.3f s | "
-      "| fusion %.3f s (%d stages, %zu keyframes), leave-out %.3f s, control points %.3f s; "
-      "method %s |\n",
+      "| fusion %.3f s (%d stages, %zu keyframes), control points %.3f s |\n",
       fs::path(o.real).filename().c_str(), r.poses.size(), r.gnss.points.size(), s, t.fusion,
-      r.fusion->stages, r.fusion->keyframes, t.leave_out, t.control_points,
-      toString(r.method).c_str());
+      r.fusion->stages, r.fusion->keyframes, t.control_points);
   std::fflush(stdout);
 }
 

@@ -117,12 +117,6 @@ void printRow(const std::string& drive, const std::string& method, const ErrorSt
 std::string notesOf(const GeoreferenceResult& r) {
   std::string out = toString(r.method);
   char buf[200];
-  if (r.leave_out) {
-    const auto& c = r.leave_out->candidates;
-    std::snprintf(buf, sizeof(buf), " (leave-out MAE/MAX fusion %.3f/%.3f, gnss %.3f/%.3f)",
-                  c[0].error.mae, c[0].error.max, c[1].error.mae, c[1].error.max);
-    out += buf;
-  }
   if (r.speed_clock && r.speed_clock->observable) {
     std::snprintf(buf, sizeof(buf), ", clock %.4f +- %.4f s from the speeds%s",
                   r.speed_clock->offset, r.speed_clock->sigma,
@@ -131,9 +125,12 @@ std::string notesOf(const GeoreferenceResult& r) {
   }
   if (!r.fusion) return out;
   const FusionResult& f = *r.fusion;
-  std::snprintf(buf, sizeof(buf), ", dt %.4f s%s, %zu rejected, SLAM noise x%.2f, %.2f + %.2f s",
+  std::snprintf(buf, sizeof(buf),
+                ", dt %.4f s%s, %zu rejected, SLAM noise x%.2f, fusion %.2f s, %zu precise fixes "
+                "(q %.1e m^2/m, excess %.3f m, %zu taken back, %zu jumps)",
                 f.time_offset, f.time_offset_estimated ? "" : " (fixed)", f.outliers,
-                f.slam_noise_scale, f.seconds, r.seconds.leave_out);
+                f.slam_noise_scale, f.seconds, f.follow.fixes, f.follow.q_h, f.follow.excess,
+                f.follow.taken_back, f.follow.jumps);
   out += buf;
   if (std::isfinite(f.estimated_std_h)) {
     std::snprintf(buf, sizeof(buf), ", std-dev %.3f m estimated", f.estimated_std_h);

@@ -85,7 +85,8 @@ double clockError(const sim::SimDrive& d, const GeoreferenceResult& r) {
 }
 
 /// GNSS/INS of reference grade at 10 Hz and visual SLAM stamped 0.12 s early: the clock to
-/// 5 ms, as much as its own 1-sigma says (a tenth of a second off would be 1.4 m at 14 m/s).
+/// 5 ms (a tenth of a second off would be 1.4 m at 14 m/s), within its own 1-sigma, which
+/// holds what a SLAM's lag may add (at least kClockSystematic) and no more than 20 ms.
 TEST(Clock, GnssInsGradeFixesGiveItToFiveMilliseconds) {
   for (std::uint64_t seed : {1, 2, 3}) {
     const sim::SimDrive d = sim::simulateDrive(sim::scenario("city_ins_10hz", seed, 1000));
@@ -94,7 +95,8 @@ TEST(Clock, GnssInsGradeFixesGiveItToFiveMilliseconds) {
                 static_cast<unsigned long>(seed), r.clock_offset, 1e3 * clockError(d, r),
                 1e3 * r.clock_offset_sigma);
     EXPECT_LT(std::abs(clockError(d, r)), 0.005) << seed;
-    EXPECT_LT(r.clock_offset_sigma, 0.005) << seed;
+    EXPECT_LT(std::abs(clockError(d, r)), r.clock_offset_sigma) << seed;
+    EXPECT_LT(r.clock_offset_sigma, 0.02) << seed;
   }
 }
 

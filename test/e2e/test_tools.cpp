@@ -195,13 +195,13 @@ TEST_F(Tools, ConfigFileAndFlagsSetTheParameters) {
       sh(bin("georeference") + " --bag " + sim() + "/drive.bag -q --config " + cfg + " --out " + o)
           .code,
       0);
-  EXPECT_EQ(readJson(o + "/report.json")["counts"]["control_points"], 50);
+  EXPECT_EQ(readJson(o + "/report.json")["counts"]["control_points_requested"], 50);
   EXPECT_DOUBLE_EQ(readJson(o + "/report.json")["params"]["stddev_threshold"].get<double>(), 0.2);
   ASSERT_EQ(sh(bin("georeference") + " --bag " + sim() + "/drive.bag -q --config " + cfg +
                " --control-points 30 --out " + o)
                 .code,
             0);  // the flag wins over the file
-  EXPECT_EQ(readJson(o + "/report.json")["counts"]["control_points"], 30);
+  EXPECT_EQ(readJson(o + "/report.json")["counts"]["control_points_requested"], 30);
   EXPECT_TRUE(readJson(o + "/report.json")["warnings"].empty());
   // More than the drive's poses can carry: capped, and the report says so.
   ASSERT_EQ(sh(bin("georeference") + " --bag " + sim() + "/drive.bag -q --control-points 50000 " +

@@ -1,11 +1,12 @@
-// The SLAM's pose-to-pose error, and the fused poses taking the fixes' detail where it shows.
+// The SLAM's pose-to-pose error from the fixes' third differences.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <random>
 
-#include "flexcloud/fusion/gnss_detail.h"
+#include <Eigen/Geometry>
+
 #include "flexcloud/fusion/slam_jitter.h"
 
 namespace flexcloud {
@@ -118,73 +119,6 @@ TEST(SlamJitter, AnIsolatedOutlierDoesNotShowAsJitter) {
   const std::vector<Vec3> j =
       slamJitter(fixes, slamOf(truth, 0, 0, rng), stamps(truth.size()), 10, 0.01);
   for (std::size_t i = 190; i < 210; ++i) EXPECT_EQ(j[i].norm(), 0.0) << i;
-}
-
-/// A fused result along a straight road: every pose at x = i, fixes at the poses' stamps.
-FusionResult straightRoad(std::size_t n, double jitter_v, double std_dev) {
-  FusionResult f;
-  for (std::size_t i = 0; i < n; ++i) {
-    Pose p;
-    p.stamp = 0.1 * static_cast<double>(i);
-    p.position = Vec3(static_cast<double>(i), 0.0, 0.0);
-    f.poses.push_back(p);
-    FixOutcome o;
-    o.stamp = p.stamp;
-    o.position = Vec3(static_cast<double>(i), 0.05, (i % 2 == 0) ? 0.3 : -0.3);
-    o.error = o.position - p.position;
-    o.std_dev = Vec3::Constant(std_dev);
-    o.slam_jitter = Vec3(0.0, 0.0, jitter_v);
-    f.fixes.push_back(o);
-  }
-  return f;
-}
-
-TEST(GnssDetail, PosesTakeTheFixesWhereTheSlamJitters) {
-  FusionResult f = straightRoad(50, 0.3, 0.01);
-  f.fixes[20].verdict = FixVerdict::kOutlier;
-  f.fixes[20].position.z() = 40.0;  // never used
-  takeGnssDetail(f);
-  const double gain = 0.09 / (0.09 + 0.0001);
-  for (std::size_t i = 0; i < 50; ++i) {
-    if (i == 20) continue;
-    EXPECT_NEAR(f.poses[i].position.z(), gain * f.fixes[i].position.z(), 1e-9) << i;
-    EXPECT_NEAR(f.poses[i].position.y(), 0.0, 1e-12) << i;  // no horizontal jitter: kept
-    EXPECT_NEAR(f.detail_gain[i], gain, 1e-9) << i;
-  }
-  // Between the inliers around the outlier: their track interpolated, not the outlier.
-  EXPECT_NEAR(f.poses[20].position.z(), gain * 0.5 * (-0.3 - 0.3), 1e-9);
-  EXPECT_NEAR(f.slam_jitter_v, 0.3, 1e-12);
-  EXPECT_EQ(f.detail_poses, 50u);
-}
-
-/// A fix stamped t on the GNSS clock was taken at SLAM time t + time_offset: with the stamps
-/// moved by the offset, every pose takes the same fix as without.
-TEST(GnssDetail, TheClockOffsetPairsEachPoseWithItsFix) {
-  FusionResult plain = straightRoad(50, 0.3, 0.01);
-  FusionResult late = plain;
-  late.time_offset = 0.35;
-  for (auto& o : late.fixes) o.stamp -= 0.35;
-  takeGnssDetail(plain);
-  takeGnssDetail(late);
-  for (std::size_t i = 0; i < 50; ++i) {
-    EXPECT_NEAR(late.poses[i].position.z(), plain.poses[i].position.z(), 1e-9) << i;
-  }
-  EXPECT_EQ(late.detail_poses, 50u);
-}
-
-TEST(GnssDetail, NothingMovesWhereTheSlamIsSmoothOrTheFixesAreFarApart) {
-  FusionResult smooth = straightRoad(50, 0.0, 0.01);
-  const Trajectory before = smooth.poses;
-  takeGnssDetail(smooth);
-  EXPECT_EQ(smooth.detail_poses, 0u);
-  for (std::size_t i = 0; i < before.size(); ++i) {
-    EXPECT_EQ(smooth.poses[i].position, before[i].position);
-  }
-  FusionResult gap = straightRoad(50, 0.3, 0.01);
-  for (std::size_t i = 21; i < 30; ++i) gap.fixes[i].verdict = FixVerdict::kOutlier;
-  takeGnssDetail(gap);
-  for (std::size_t i = 21; i < 30; ++i) EXPECT_EQ(gap.poses[i].position.z(), 0.0) << i;
-  EXPECT_EQ(gap.detail_poses, 50u - 9u);
 }
 
 }  // namespace

@@ -1,6 +1,8 @@
 #pragma once
 
+#include <limits>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "flexcloud/types.h"
@@ -22,6 +24,39 @@ struct ClockOffsetEstimate {
 /// (stops, braking) show the offset.
 ClockOffsetEstimate estimateClockOffset(const Trajectory& poses, const std::vector<GnssPoint>& gnss,
                                         double max_offset);
+
+/// The same offset from the headings: the course of the GNSS against the course of the SLAM's
+/// antenna (lever_arm in the body frame) at the offset, less their slowly changing difference
+/// (the SLAM's frame and its heading drift, a moving median over 20 s), against the SLAM's turn
+/// rate (Tukey's biweight), from `start` (s) in rounds until it settles; its sigma at least the
+/// spread of the offsets of four stretches of the drive. No scale or speed error of the SLAM
+/// enters it; only turns show the offset. None from fixes sparser than 2 Hz, whose course is
+/// a chord.
+ClockOffsetEstimate estimateHeadingOffset(const Trajectory& poses,
+                                          const Eigen::Vector3d& lever_arm,
+                                          const std::vector<GnssPoint>& gnss, double start);
+
+/// s, what a real SLAM's lag in its speed or heading adds to either profile's offset (KITTI's
+/// LiDAR odometry against its truth: up to 5 ms but on one drive of nine, 25 ms in both).
+constexpr double kClockSystematic = 0.005;
+/// An offset is applied only beyond this many of its sigmas from 0.
+constexpr double kClockSignificant = 3.0;
+
+/// The two profiles together; none without the speed's.
+struct ClockEstimate {
+  ClockOffsetEstimate speed, heading;
+  /// Their mean weighted by their sigmas; its 1-sigma widened to half their difference where
+  /// they part by more than two of their joint sigmas (disagree), and by kClockSystematic.
+  double offset = 0.0;
+  double sigma = std::numeric_limits<double>::infinity();
+  bool disagree = false;
+  /// Whether it is told from 0: beyond kClockSignificant of its sigmas; otherwise the stamps
+  /// as given are the better guess, and `reason` says why.
+  bool observable = false;
+  std::string reason;
+};
+
+ClockEstimate combineClock(const ClockOffsetEstimate& speed, const ClockOffsetEstimate& heading);
 
 /// Where a fit of positions took the offset (`fitted`, s) more than two of the speed profiles'
 /// sigmas from theirs, the offset to hold the clock at instead: theirs where it lies beyond

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "flexcloud/cancel.h"
+#include "flexcloud/fusion/clock_offset.h"
 #include "flexcloud/types.h"
 
 namespace flexcloud {
@@ -64,14 +65,17 @@ struct FusionResult {
   /// Clock offset estimated on top of params.gnss_time_offset, s (SLAM time = GNSS time +
   /// offset: a fix stamped t was taken at SLAM time t + offset).
   double time_offset = 0.0;
-  /// Whether the offset was estimated: asked for (max_time_offset > 0) and shown by the speed
-  /// profiles of the SLAM and the GNSS (otherwise it stays 0), its 1-sigma from the fusion
-  /// (s; infinite where not estimated), and what the speed profiles alone showed with their
-  /// 1-sigma (infinite where the speed varied too little).
+  /// Whether the offset was estimated: asked for (max_time_offset > 0) and told from 0 by the
+  /// speed and heading profiles of the SLAM and the GNSS (otherwise it stays 0), its 1-sigma
+  /// (the profiles' together, s; infinite where not estimated), and what the speed profiles
+  /// alone showed with their 1-sigma (infinite where the speed varied too little).
   bool time_offset_estimated = false;
   double time_offset_sigma = 0.0;
   double time_offset_from_speed = 0.0;
   double time_offset_speed_sigma = 0.0;
+  /// The speed and heading profiles' offsets and what they say together (clock_offset.h):
+  /// `clock.observable` false keeps the stamps as given, and clock.reason says why.
+  ClockEstimate clock;
   /// Where the fit of positions took the offset (time_offset_from_positions) beyond two of the
   /// speed profiles' sigmas from theirs, the offset is held at theirs (at 0 where theirs lies
   /// within three of their sigmas of it): a SLAM shape error (fast turns) passes for a clock
@@ -94,17 +98,35 @@ struct FusionResult {
   double reported_std_scale[3] = {1.0, 1.0, 1.0};
   /// Upper bound of the GNSS's horizontal white noise from its own roughness, m.
   double gnss_roughness_h = 0.0;
-  /// The SLAM's pose-to-pose error at the inliers (median, 1-sigma, m), and what the poses
-  /// took of the fixes' detail because of it (gnss_detail.h): per pose the larger of the
-  /// horizontal and vertical gain (0: the fused pose kept), how many moved and the largest move.
+  /// The white noise of the fixes without a std-dev (horizontal, vertical; m; NaN without
+  /// such fixes): the smaller of two bounds from the lower quartile of their third differences
+  /// (calmRoughness), of their track (the motion's jerk adds to it) and of their track less the
+  /// SLAM (its jitter adds to it). No fit is involved.
+  Eigen::Vector2d unknown_white =
+      Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
+  /// The SLAM's pose-to-pose error at the inliers (median, 1-sigma, m).
   double slam_jitter_h = 0.0;
   double slam_jitter_v = 0.0;
-  std::vector<double> detail_gain;
+  /// The refinement by precise fixes (precise_follow.h): per pose whether the SLAM jumped at
+  /// it (its shape there is no better than its position), how many poses moved by more than a
+  /// millimetre, the largest move.
+  std::vector<bool> jumped;
   std::size_t detail_poses = 0;
   double detail_max_shift = 0.0;
-  /// Leave-out (when asked for): per input fix held out of its fold's solve, its distance
-  /// from the antenna that solve predicts at its instant, m; NaN for the others.
-  std::vector<double> leave_out_deviation;
+  /// What that refinement learned: the fixes that took part, the SLAM's short-term error
+  /// (random walk intensity, m^2 per m of path, horizontal and vertical), its excess over the
+  /// fixes' noise (m), the steps taken for jumps, the fixes the graph had rejected that it
+  /// took back, those it kept out as too far for an error of the SLAM, and those it rejected.
+  struct Follow {
+    std::size_t fixes = 0;
+    double q_h = 0.0;
+    double q_v = 0.0;
+    double excess = 0.0;
+    std::size_t jumps = 0;
+    std::size_t taken_back = 0;
+    std::size_t locked = 0;
+    std::size_t rejected = 0;
+  } follow;
   std::size_t keyframes = 0;
   std::size_t used = 0;
   std::size_t outliers = 0;
@@ -116,13 +138,6 @@ struct FusionResult {
   /// stage was solved again with it held at the bound.
   int solves = 0;
   double seconds = 0.0;
-};
-
-/// Which fixes a leave-out holds out together: fold[j] of input fix j (-1: never), folds in
-/// all. Each fold is solved again without its fixes, from the full solution.
-struct LeaveOutFolds {
-  std::vector<int> fold;
-  int folds = 0;
 };
 
 /// The numbers the fusion uses; fusionOptions() (params.h) fills them from the parameter table.
@@ -143,13 +158,11 @@ struct FusionOptions {
 };
 
 /// Fuses `poses` (SLAM, map frame, sorted by stamp) with `gnss` (ENU, sorted by stamp, std-dev
-/// NaN where not given), starting from the rigid alignment T_enu_map, and takes the fixes'
-/// detail where the SLAM is rough (takeGnssDetail). With `folds`, also the leave-out
-/// (FusionResult::leave_out_deviation). Throws Error when fewer than 3 fixes can take part, or
+/// NaN where not given), starting from the rigid alignment T_enu_map, then refines it by the
+/// precise fixes (followPreciseGnss). Throws Error when fewer than 3 fixes can take part, or
 /// when cancelled.
 FusionResult fuseTrajectory(const Trajectory& poses, const std::vector<GnssPoint>& gnss,
                             const Eigen::Isometry3d& T_enu_map, const FusionOptions& options,
-                            const CancelToken& cancel = neverCancelled(),
-                            const LeaveOutFolds& folds = {});
+                            const CancelToken& cancel = neverCancelled());
 
 }  // namespace flexcloud

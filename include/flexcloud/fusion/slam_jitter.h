@@ -31,6 +31,12 @@ std::vector<Eigen::Vector3d> slamJitter(const std::vector<Eigen::Vector3d>& fixe
 Eigen::Vector2d roughness(const std::vector<Eigen::Vector3d>& track,
                           const std::vector<double>& stamps);
 
+/// The same from the lower quartile of the differences (|N(0, s^2)| has it at 0.3186 s): the
+/// white noise of the track's calm part where up to half of it is rough (multipath with
+/// jitter), which would raise the median.
+Eigen::Vector2d calmRoughness(const std::vector<Eigen::Vector3d>& track,
+                              const std::vector<double>& stamps);
+
 /// |third divided difference| of four positions at their stamps, per axis, over the norm of its
 /// coefficients (white noise of 1-sigma s gives N(0, s^2) whatever the spacing); none when two
 /// stamps coincide.

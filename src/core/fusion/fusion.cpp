@@ -2,7 +2,7 @@
 #include <algorithm>
 #include <chrono>
 
-#include "flexcloud/fusion/gnss_detail.h"
+#include "flexcloud/fusion/precise_follow.h"
 #include "flexcloud/fusion/slam_jitter.h"
 #include "flexcloud/input/trajectory.h"
 #include "flexcloud/metrics.h"
@@ -31,13 +31,18 @@ FusionResult Fusion::run(const Eigen::Isometry3d& T_enu_map) {
   makeKeyframes(start_);
   prepareFixes(kUnknownStdStart, kUnknownStdStart);
   estimateClassScales();
+  measureUnknownWhite();
   loss_ = std::make_shared<GemanMcClure>(options_.outlier_threshold);
+  loss_imprecise_ =
+      std::make_shared<GemanMcClure>(kImpreciseLoss * options_.outlier_threshold, true);
   solveStages();
   adaptSlamNoise();
   restamp();
   holdClockWhereTheSpeedsDisagree();
-  const auto full = polish();
-  measureAtSolution(*full);
+  polish();
+  // The fit of positions refines the offset within the profiles' sigma; their sigma stands,
+  // for what the SLAM's lag puts into both (clock_offset.h).
+  offset_sigma_ = clock_.observable ? clock_.sigma : kInf;
   collect();
   out_.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out_;
@@ -195,10 +200,10 @@ std::string toString(FixVerdict v) {
 
 FusionResult fuseTrajectory(const Trajectory& poses, const std::vector<GnssPoint>& gnss,
                             const Eigen::Isometry3d& T_enu_map, const FusionOptions& options,
-                            const CancelToken& cancel, const LeaveOutFolds& folds) {
+                            const CancelToken& cancel) {
   if (poses.size() < 2) throw Error("fusion: at least 2 poses are needed");
-  FusionResult out = fusion_graph::Fusion(poses, gnss, options, cancel, folds).run(T_enu_map);
-  takeGnssDetail(out);
+  FusionResult out = fusion_graph::Fusion(poses, gnss, options, cancel).run(T_enu_map);
+  followPreciseGnss(out, FollowOptions{});
   return out;
 }
 

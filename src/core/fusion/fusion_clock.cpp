@@ -1,7 +1,7 @@
-// The fusion's clock offset: from the speed profiles, restamped to the millisecond, its 1-sigma.
-#include <Eigen/SparseCholesky>
-#include <Eigen/SparseCore>
+// The fusion's clock offset: from the speed and heading profiles, refined by the fit of
+// positions and restamped to the millisecond.
 #include <algorithm>
+#include <cmath>
 #include <optional>
 
 #include "fusion_graph.h"
@@ -12,39 +12,22 @@ namespace fusion_graph {
 void Fusion::estimateClock() {
   std::vector<GnssPoint> taking_part;
   for (const auto& f : fixes_) taking_part.push_back(gnss_[f.input]);
-  clock_ = estimateClockOffset(poses_, taking_part, options_.max_time_offset);
+  const ClockOffsetEstimate speed =
+      estimateClockOffset(poses_, taking_part, options_.max_time_offset);
+  ClockOffsetEstimate heading;
+  if (options_.max_time_offset > 0.0) {
+    heading = estimateHeadingOffset(poses_, options_.lever_arm, taking_part,
+                                    speed.observable ? speed.offset : 0.0);
+    if (std::abs(heading.offset) > options_.max_time_offset) heading.observable = false;
+  }
+  out_.clock = combineClock(speed, heading);
+  // The fusion refines the offset only where the profiles tell it from 0, within their sigma.
+  clock_ = speed;
+  clock_.observable = out_.clock.observable;
+  clock_.offset = out_.clock.offset;
+  clock_.sigma = out_.clock.sigma;
   shift_ = clock_.observable ? clock_.offset : 0.0;
   dt_ = 0.0;
-}
-
-double Fusion::offsetSigma(ceres::Problem& problem) {
-  ceres::Problem::EvaluateOptions eval;
-  std::vector<double*> blocks;
-  problem.GetParameterBlocks(&blocks);
-  std::rotate(blocks.begin(), std::find(blocks.begin(), blocks.end(), &dt_), blocks.end());
-  eval.parameter_blocks = blocks;  // the offset last
-  double cost = 0.0;
-  ceres::CRSMatrix crs;
-  if (!problem.Evaluate(eval, &cost, nullptr, nullptr, &crs)) return kInf;
-  const int n = crs.num_cols;
-  std::vector<Eigen::Triplet<double>> entries;
-  for (int r = 0; r < crs.num_rows; ++r) {
-    for (int k = crs.rows[r]; k < crs.rows[r + 1]; ++k) {
-      entries.emplace_back(r, crs.cols[k], crs.values[k]);
-    }
-  }
-  Eigen::SparseMatrix<double> j(crs.num_rows, n);
-  j.setFromTriplets(entries.begin(), entries.end());
-  const Eigen::SparseMatrix<double> h = j.transpose() * j;
-  const Eigen::SparseMatrix<double> hxx = h.topLeftCorner(n - 1, n - 1);
-  const Eigen::VectorXd hxd = h.block(0, n - 1, n - 1, 1);
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(hxx);
-  if (ldlt.info() != Eigen::Success) return kInf;
-  const double schur = h.coeff(n - 1, n - 1) - hxd.dot(ldlt.solve(hxd));
-  if (!(schur > 0.0)) return kInf;
-  const double dof = static_cast<double>(crs.num_rows - n);
-  const double spread = dof > 0.0 ? std::max(1.0, 2.0 * cost / dof) : 1.0;
-  return std::sqrt(spread / schur);
 }
 
 void Fusion::restamp() {

@@ -1,44 +1,9 @@
-// What the fusion measures at its solution (leave-out folds, the offset's sigma) and its result.
+// The fusion's result: its fixes' outcomes, counts and poses.
 #include "flexcloud/metrics.h"
 #include "fusion_graph.h"
 
 namespace flexcloud {
 namespace fusion_graph {
-
-Fusion Fusion::copyForSolve() const {
-  Fusion c(*this);
-  for (Fix& f : c.fixes_) f.factor.sigma = &f.sigma;
-  c.solver_threads_ = 1;
-  return c;
-}
-
-void Fusion::leaveOutFold(int k) {
-  Fusion fold = copyForSolve();
-  fold.holdout_ = &folds_.fold;
-  fold.held_out_ = k;
-  std::size_t kept = 0, held = 0;
-  for (const auto& f : fold.fixes_) (fold.heldOut(f) ? held : kept) += 1;
-  if (held == 0 || kept < 3) return;
-  fold.solveAt(*fold.makeProblem(1), 0.0, kLeaveOutIterations);
-  for (const auto& f : fold.fixes_) {
-    if (fold.heldOut(f)) out_.leave_out_deviation[f.input] = fold.residualOf(f).norm();
-  }
-}
-
-void Fusion::measureAtSolution(ceres::Problem& full) {
-  out_.leave_out_deviation.assign(gnss_.size(), std::numeric_limits<double>::quiet_NaN());
-  const bool folds = folds_.folds >= 2 && folds_.fold.size() == gnss_.size();
-  const std::size_t tasks = 1 + (folds ? static_cast<std::size_t>(folds_.folds) : 0);
-  parallelRanges(tasks, tasks, options_.threads, [&](std::size_t task, std::size_t, std::size_t) {
-    if (task > 0) {
-      leaveOutFold(static_cast<int>(task) - 1);
-    } else {
-      offset_sigma_ = !clock_.observable      ? kInf
-                      : out_.time_offset_held ? clock_.sigma
-                                              : offsetSigma(full);
-    }
-  });
-}
 
 Eigen::Isometry3d Fusion::keyframePose(const Keyframe& k) const {
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
@@ -85,8 +50,8 @@ void Fusion::collect() {
   }
   out_.time_offset = shift_ + dt_;
   out_.time_offset_estimated = clock_.observable;
-  out_.time_offset_from_speed = clock_.offset;
-  out_.time_offset_speed_sigma = clock_.sigma;
+  out_.time_offset_from_speed = out_.clock.speed.offset;
+  out_.time_offset_speed_sigma = out_.clock.speed.sigma;
   out_.time_offset_sigma = offset_sigma_;
   fusedPoses();
 }

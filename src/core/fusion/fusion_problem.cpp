@@ -37,9 +37,12 @@ std::unique_ptr<ceres::Problem> Fusion::makeProblem(std::size_t stride) {
   }
   for (std::size_t j = 0; j < fixes_.size(); j += stride) {
     Fix& f = fixes_[j];
-    if (heldOut(f)) continue;
     Keyframe& k = keyframes_[f.keyframe];
-    problem->AddResidualBlock(new GnssCost(f.factor), loss_.get(), k.q, k.p, &k.s, &dt_);
+    f.imprecise = (f.known_std ? ownSigma(gnss_[f.input].std_dev, 0.0, 0.0).x()
+                               : out_.unknown_white.x()) >= kPreciseStd;
+    problem->AddResidualBlock(new GnssCost(f.factor),
+                              f.imprecise ? loss_imprecise_.get() : loss_.get(), k.q, k.p, &k.s,
+                              &dt_);
   }
   return problem;
 }
@@ -66,10 +69,9 @@ void Fusion::addOdometry(ceres::Problem& problem) {
   }
 }
 
-std::unique_ptr<ceres::Problem> Fusion::polish() {
-  auto full = makeProblem(1);
+void Fusion::polish() {
+  const auto full = makeProblem(1);
   solveAt(*full, 0.0, kPolishIterations, kFinalTolerance);
-  return full;
 }
 
 double Fusion::squaredResidual(const Fix& f) const {
@@ -126,10 +128,8 @@ void Fusion::solveAt(ceres::Problem& problem, double floor, int iterations, doub
     problem.SetParameterBlockVariable(&dt_);
     ++solves;
   }
-  if (held_out_ < 0) {
-    ++out_.stages;
-    out_.solves += solves;
-  }
+  ++out_.stages;
+  out_.solves += solves;
 }
 
 bool Fusion::clampOffset() {
@@ -151,7 +151,7 @@ Vec3 Fusion::residualOf(const Fix& f) const {
 }
 
 double Fusion::weightOf(const Fix& f) const {
-  return GemanMcClure(options_.outlier_threshold).weight(squaredResidual(f));
+  return (f.imprecise ? *loss_imprecise_ : *loss_).weight(squaredResidual(f));
 }
 
 }  // namespace fusion_graph

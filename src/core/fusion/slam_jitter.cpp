@@ -61,6 +61,23 @@ std::optional<Vec3> thirdDividedDifference(const Vec3 x[4], const double t[4]) {
   return Vec3(sum.cwiseAbs() / std::sqrt(norm2));
 }
 
+Eigen::Vector2d calmRoughness(const std::vector<Vec3>& track, const std::vector<double>& stamps) {
+  constexpr double kQuartileOfHalfNormal = 0.3186;
+  const std::vector<Vec3> d = thirdDifferences(track, stamps);
+  std::vector<double> h, v;
+  for (const Vec3& x : d) {
+    if (!x.allFinite()) continue;
+    h.push_back(x.x()), h.push_back(x.y()), v.push_back(x.z());
+  }
+  const auto quartile = [](std::vector<double>& a) {
+    if (a.empty()) return std::numeric_limits<double>::quiet_NaN();
+    const auto k = static_cast<std::ptrdiff_t>(a.size() / 4);
+    std::nth_element(a.begin(), a.begin() + k, a.end());
+    return a[static_cast<std::size_t>(k)];
+  };
+  return Eigen::Vector2d(quartile(h), quartile(v)) / kQuartileOfHalfNormal;
+}
+
 Eigen::Vector2d roughness(const std::vector<Vec3>& track, const std::vector<double>& stamps) {
   const std::vector<Vec3> d = thirdDifferences(track, stamps);
   return spread(d, 0, d.size());

@@ -1,0 +1,199 @@
+#include "follow_em.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "flexcloud/metrics.h"
+
+namespace flexcloud {
+namespace follow {
+namespace {
+
+constexpr double kTwoPi = 6.283185307179586;
+constexpr double kLogQLow = -9.0, kLogQHigh = 0.0;  // log10 of q's range, m^2 per m
+constexpr int kGoldenSteps = 28;
+constexpr double kMinWeight = 1e-6;
+constexpr double kFarSigmas = 6.0;
+
+}  // namespace
+
+Smoothed smoothAxis(const Series& s, int axis, const std::vector<double>& Q,
+                    const std::vector<double>& w, double P0) {
+  const std::size_t n = s.size();
+  std::vector<double> mp(n), Pp(n), mf(n), Pf(n);
+  Smoothed out;
+  double m = 0.0, P = P0;
+  for (std::size_t j = 0; j < n; ++j) {
+    if (j > 0) P += Q[j];
+    mp[j] = m, Pp[j] = P;
+    if (w[j] > kMinWeight) {
+      const double S = P + s.var[j](axis) / w[j];
+      const double nu = s.r[j](axis) - m;
+      if (j > 0) out.loglik += w[j] * -0.5 * (nu * nu / S + std::log(kTwoPi * S));
+      const double K = P / S;
+      m += K * nu;
+      P *= 1.0 - K;
+    }
+    mf[j] = m, Pf[j] = P;
+  }
+  out.m = mf, out.P = Pf, out.C.assign(n, 0.0);
+  for (std::size_t j = n - 1; j-- > 0;) {
+    const double J = Pp[j + 1] > 0.0 ? Pf[j] / Pp[j + 1] : 0.0;
+    out.m[j] = mf[j] + J * (out.m[j + 1] - mp[j + 1]);
+    out.P[j] = Pf[j] + J * J * (out.P[j + 1] - Pp[j + 1]);
+    out.C[j] = J * out.P[j + 1];
+  }
+  return out;
+}
+
+Refinement::Refinement(const Series& s, const FollowOptions& o)
+    : s_(s), o_(o), w_(s.size(), 1.0), jump_(s.size(), 0.0), bend_(s.size(), 0.0) {}
+
+void Refinement::run(const std::vector<double>& jumps, const std::vector<double>& start) {
+  jump_ = candidates_ = jumps;
+  excess_ = slamExcess();
+  locked_ = lockFarRuns(start);
+  for (std::size_t j = 0; j < w_.size(); ++j) w_[j] = locked_[j] ? 0.0 : 1.0;
+  q_[0] = q_[1] = o_.start_q;
+  for (int round = 0; round < o_.rounds; ++round) {
+    if (round > 0) {
+      q_[0] = learnQ({0, 1});
+      q_[1] = learnQ({2});
+    }
+    smoothAll();
+    updateWeights();
+    updateSteps();
+  }
+  smoothAll();
+}
+
+std::vector<double> Refinement::steps(double q) const {
+  const double b2 = o_.bend_ratio * o_.bend_ratio, j2 = o_.jump_sigma * o_.jump_sigma;
+  std::vector<double> Q(s_.size());
+  for (std::size_t j = 0; j < Q.size(); ++j) {
+    const double core = q * s_.step(j);
+    Q[j] = (1.0 - jump_[j] - bend_[j]) * core + bend_[j] * b2 * core + jump_[j] * j2;
+  }
+  return Q;
+}
+
+double Refinement::loglik(std::initializer_list<int> axes, double q) const {
+  const std::vector<double> Q = steps(q);
+  double ll = 0.0;
+  for (int a : axes) ll += smoothAxis(s_, a, Q, w_, q * o_.start_metres).loglik;
+  return ll;
+}
+
+double Refinement::learnQ(std::initializer_list<int> axes) const {
+  // Golden-section search of log10 q for the largest likelihood of the innovations.
+  const double g = 0.5 * (std::sqrt(5.0) - 1.0);
+  double a = kLogQLow, b = kLogQHigh;
+  double c = b - g * (b - a), d = a + g * (b - a);
+  double fc = loglik(axes, std::pow(10.0, c)), fd = loglik(axes, std::pow(10.0, d));
+  for (int i = 0; i < kGoldenSteps; ++i) {
+    if (fc > fd) {
+      b = d, d = c, fd = fc;
+      c = b - g * (b - a);
+      fc = loglik(axes, std::pow(10.0, c));
+    } else {
+      a = c, c = d, fc = fd;
+      d = a + g * (b - a);
+      fd = loglik(axes, std::pow(10.0, d));
+    }
+  }
+  return std::pow(10.0, 0.5 * (a + b));
+}
+
+void Refinement::smoothAll() {
+  for (int a = 0; a < 3; ++a) {
+    sm_[static_cast<std::size_t>(a)] = smoothAxis(s_, a, steps(qOf(a)), w_, qOf(a) * o_.start_metres);
+  }
+}
+
+double Refinement::slamExcess() const {
+  // The SLAM's short-term error beyond the fixes' own noise: the robust spread of the
+  // residuals' horizontal components, less the fixes' median own variance. A few centimetres
+  // for a real LiDAR odometry, none for a SLAM that errs only slowly.
+  std::vector<double> c, own;
+  for (std::size_t j = 0; j < s_.size(); ++j) {
+    c.push_back(s_.r[j].x()), c.push_back(s_.r[j].y());
+    own.push_back(s_.var[j].x());
+  }
+  const double spread = madSigma(std::move(c));
+  return std::sqrt(std::max(0.0, spread * spread - median(std::move(own))));
+}
+
+std::vector<bool> Refinement::lockFarRuns(const std::vector<double>& start) const {
+  // A run of fixes the graph rejected whose median horizontal distance from its trajectory
+  // lies beyond run_excess times the SLAM's excess (and kFarSigmas of the fixes' own
+  // std-devs: the graph rejects from 4.4 of them on, the tail of their noise) is further off
+  // than any error of the SLAM's: no round takes it back.
+  std::vector<bool> locked(start.size(), false);
+  for (std::size_t a = 0; a < start.size();) {
+    if (start[a] >= 0.5) {
+      ++a;
+      continue;
+    }
+    std::size_t b = a;
+    while (b + 1 < start.size() && start[b + 1] < 0.5) ++b;
+    std::vector<double> d, own;
+    for (std::size_t k = a; k <= b; ++k) {
+      d.push_back(s_.r[k].head<2>().norm());
+      own.push_back(std::sqrt(s_.var[k].x()));
+    }
+    if (median(d) > o_.run_excess * excess_ + kFarSigmas * median(own)) {
+      std::fill(locked.begin() + static_cast<std::ptrdiff_t>(a),
+                locked.begin() + static_cast<std::ptrdiff_t>(b) + 1, true);
+    }
+    a = b + 1;
+  }
+  return locked;
+}
+
+void Refinement::updateWeights() {
+  // Each fix's posterior probability of being an inlier, from its smoothed residual.
+  const double box = o_.outlier_box;
+  const double outlier = o_.outlier_prior / (box * box * 0.4 * box);
+  for (std::size_t j = 0; j < s_.size(); ++j) {
+    double e2 = 0.0, det = 1.0;
+    for (std::size_t a = 0; a < 3; ++a) {
+      const double v = s_.var[j](static_cast<int>(a)) + sm_[a].P[j];
+      const double e = s_.r[j](static_cast<int>(a)) - sm_[a].m[j];
+      e2 += e * e / v;
+      det *= kTwoPi * v;
+    }
+    const double inlier = (1.0 - o_.outlier_prior) * std::exp(-0.5 * e2) / std::sqrt(det);
+    w_[j] = locked_[j] || !(inlier + outlier > 0.0) ? 0.0 : inlier / (inlier + outlier);
+  }
+}
+
+void Refinement::updateSteps() {
+  // Each step's posterior probability of being a bend (bend_ratio times the core's 1-sigma)
+  // and, where the residuals alone showed one, a jump, from its smoothed increment.
+  const double sj2 = o_.jump_sigma * o_.jump_sigma, b2 = o_.bend_ratio * o_.bend_ratio;
+  for (std::size_t j = 1; j < s_.size(); ++j) {
+    double core = 1.0, bend = 1.0, jump = 1.0;
+    for (std::size_t a = 0; a < 3; ++a) {
+      const Smoothed& sm = sm_[a];
+      const double dm = sm.m[j] - sm.m[j - 1];
+      const double e2 = dm * dm + sm.P[j] + sm.P[j - 1] - 2.0 * sm.C[j - 1];
+      const double v = std::max(qOf(static_cast<int>(a)) * s_.step(j), 1e-300);
+      core *= std::exp(-0.5 * e2 / v) / std::sqrt(kTwoPi * v);
+      bend *= std::exp(-0.5 * e2 / (b2 * v)) / std::sqrt(kTwoPi * b2 * v);
+      jump *= std::exp(-0.5 * e2 / sj2) / std::sqrt(kTwoPi * sj2);
+    }
+    const double jp = candidates_[j] != 0.0 ? o_.jump_prior : 0.0;
+    const double pj = jp * jump, pb = o_.bend_prior * bend;
+    const double total = pj + pb + (1.0 - jp - o_.bend_prior) * core;
+    if (!(total > 0.0)) {  // beyond every component: the broadest takes it
+      jump_[j] = candidates_[j] != 0.0 ? 1.0 : 0.0;
+      bend_[j] = 1.0 - jump_[j];
+      continue;
+    }
+    jump_[j] = pj / total;
+    bend_[j] = pb / total;
+  }
+}
+
+}  // namespace follow
+}  // namespace flexcloud

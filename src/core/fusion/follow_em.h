@@ -1,0 +1,67 @@
+#pragma once
+// The EM of the refinement by precise fixes (precise_follow.h): the correction smoothed per
+// axis (a random walk over the path, Rauch-Tung-Striebel), its intensity q learned by maximum
+// likelihood, each fix's chance of being an outlier and each step's of being a bend or a jump
+// of the SLAM. Private to the core.
+
+#include <array>
+#include <vector>
+
+#include "follow_series.h"
+
+namespace flexcloud {
+namespace follow {
+
+/// One axis smoothed: means, variances, the covariance of each value with the next, and the
+/// weighted log-likelihood of the innovations (the first left out).
+struct Smoothed {
+  std::vector<double> m, P, C;
+  double loglik = 0.0;
+};
+
+/// Rauch-Tung-Striebel smoothing of axis `axis` of s.r: the random walk with per-step
+/// variance Q (Q[0] unused) and first variance P0, each value measured with variance s.var / w
+/// (not at all where w is near 0).
+Smoothed smoothAxis(const Series& s, int axis, const std::vector<double>& Q,
+                    const std::vector<double>& w, double P0);
+
+class Refinement {
+ public:
+  Refinement(const Series& s, const FollowOptions& o);
+
+  /// `start` is the keyframe graph's weight of each fix, `jumps` the steps the residuals alone
+  /// show a jump at (detectJumps). Runs of fixes the graph rejected that lie too far for an
+  /// error of the SLAM (lockFarRuns) stay out; every other fix starts with full say, whatever
+  /// the graph called it. Round 0 smooths at q = start_q; every later round learns q by maximum
+  /// likelihood with the fixes weighted as the round before judged them.
+  void run(const std::vector<double>& jumps, const std::vector<double>& start);
+
+  const std::vector<double>& weights() const { return w_; }
+  const std::vector<double>& jumps() const { return jump_; }
+  const std::vector<bool>& locked() const { return locked_; }
+  double q(int group) const { return q_[group]; }
+  double excess() const { return excess_; }
+  Vec3 correction(std::size_t j) const { return Vec3(sm_[0].m[j], sm_[1].m[j], sm_[2].m[j]); }
+
+ private:
+  double qOf(int axis) const { return q_[axis < 2 ? 0 : 1]; }
+  std::vector<double> steps(double q) const;
+  double loglik(std::initializer_list<int> axes, double q) const;
+  double learnQ(std::initializer_list<int> axes) const;
+  void smoothAll();
+  double slamExcess() const;
+  std::vector<bool> lockFarRuns(const std::vector<double>& start) const;
+  void updateWeights();
+  void updateSteps();
+
+  const Series& s_;
+  const FollowOptions& o_;
+  std::vector<double> w_, jump_, bend_, candidates_;
+  std::vector<bool> locked_;
+  double q_[2] = {1e-9, 1e-9};
+  double excess_ = 0.0;
+  std::array<Smoothed, 3> sm_;
+};
+
+}  // namespace follow
+}  // namespace flexcloud

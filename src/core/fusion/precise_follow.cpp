@@ -1,0 +1,102 @@
+#include "flexcloud/fusion/precise_follow.h"
+
+#include <algorithm>
+
+#include "flexcloud/metrics.h"
+#include "follow_em.h"
+#include "follow_series.h"
+
+namespace flexcloud {
+namespace {
+
+using follow::Refinement;
+using follow::Series;
+using follow::Vec3;
+
+constexpr double kMoved = 1e-3;  // m: a pose moved by less counts as kept
+
+/// The correction at instant t: linear between the fixes around it, held beyond the ends.
+Vec3 correctionAt(const Series& s, const Refinement& e, double t, std::size_t& k) {
+  while (k + 1 < s.size() && s.t[k + 1] <= t) ++k;
+  if (t <= s.t.front()) return e.correction(0);
+  if (k + 1 >= s.size()) return e.correction(s.size() - 1);
+  const double span = s.t[k + 1] - s.t[k];
+  const double u = span > 0.0 ? (t - s.t[k]) / span : 0.0;
+  return (1.0 - u) * e.correction(k) + u * e.correction(k + 1);
+}
+
+void moveThePoses(FusionResult& f, const Series& s, const Refinement& e) {
+  std::size_t k = 0, j = 0;
+  for (std::size_t i = 0; i < f.poses.size(); ++i) {
+    Pose& p = f.poses[i];
+    const Vec3 c = correctionAt(s, e, p.stamp, k);
+    p.position += c;
+    if (c.norm() > kMoved) ++f.detail_poses;
+    f.detail_max_shift = std::max(f.detail_max_shift, c.norm());
+    // A pose next to a step the SLAM jumped at.
+    while (j + 1 < s.size() && s.t[j + 1] <= p.stamp) ++j;
+    f.jumped[i] = e.jumps()[j] > 0.5 || (j + 1 < s.size() && e.jumps()[j + 1] > 0.5);
+  }
+}
+
+void judgeTheFixes(FusionResult& f, const Series& s, const Refinement& e) {
+  std::size_t k = 0;
+  for (std::size_t j = 0; j < s.size(); ++j) {
+    FixOutcome& x = f.fixes[s.fix[j]];
+    const Pose p = follow::poseAt(f.poses, s.t[j], k);
+    const bool was = x.verdict == FixVerdict::kUsed;
+    x.weight = e.weights()[j];
+    x.verdict = x.weight >= 0.5 ? FixVerdict::kUsed : FixVerdict::kOutlier;
+    x.error = x.position - (p.position + p.orientation * f.lever_arm);
+    x.residual = x.error.norm();
+    if (!was && x.verdict == FixVerdict::kUsed) ++f.follow.taken_back;
+    if (x.verdict == FixVerdict::kOutlier) ++f.follow.rejected;
+  }
+  f.used = f.outliers = 0;
+  for (const auto& x : f.fixes) {
+    f.used += x.verdict == FixVerdict::kUsed;
+    f.outliers += x.verdict == FixVerdict::kOutlier;
+  }
+}
+
+void medianJitter(FusionResult& f) {
+  std::vector<double> h, v;
+  for (const auto& x : f.fixes) {
+    if (x.verdict != FixVerdict::kUsed) continue;
+    h.push_back(x.slam_jitter.x());
+    v.push_back(x.slam_jitter.z());
+  }
+  if (h.empty()) return;
+  f.slam_jitter_h = median(std::move(h));
+  f.slam_jitter_v = median(std::move(v));
+}
+
+}  // namespace
+
+void followPreciseGnss(FusionResult& f, const FollowOptions& options) {
+  medianJitter(f);
+  f.jumped.assign(f.poses.size(), false);
+  f.detail_poses = 0;
+  f.detail_max_shift = 0.0;
+  f.follow = {};
+  if (f.poses.size() < 2) return;
+  const Series all = follow::gather(f, options);
+  std::vector<Vec3> positions;
+  for (std::size_t j : all.fix) positions.push_back(f.fixes[j].position);
+  const Series s = follow::keepTheSmooth(all, positions);
+  if (s.size() < options.min_fixes) return;
+  std::vector<double> start;
+  for (std::size_t j : s.fix) start.push_back(f.fixes[j].weight);
+  Refinement e(s, options);
+  e.run(follow::detectJumps(s), start);
+  f.follow.fixes = s.size();
+  f.follow.q_h = e.q(0);
+  f.follow.q_v = e.q(1);
+  f.follow.excess = e.excess();
+  for (double p : e.jumps()) f.follow.jumps += p > 0.5;
+  for (bool l : e.locked()) f.follow.locked += l;
+  moveThePoses(f, s, e);
+  judgeTheFixes(f, s, e);
+}
+
+}  // namespace flexcloud
