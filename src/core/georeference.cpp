@@ -289,6 +289,36 @@ void warnRejectedStretches(const FusionResult& f, bool given, const std::string&
 
 }  // namespace
 
+namespace {
+
+/// The clock's warnings: an offset the profiles could not tell from 0 or not at all, or one
+/// told only loosely.
+void clockWarnings(const FusionResult& f, std::vector<std::string>& out) {
+  constexpr double kLoose = 0.010;  // s: a looser 1-sigma is worth a word
+  const ClockEstimate& c = f.clock;
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(1);
+  if (!f.time_offset_estimated && !c.reason.empty()) {
+    s << "clock: ";
+    if (std::isfinite(c.sigma)) {
+      s << "the speed and heading profiles put the GNSS " << 1e3 * c.offset << " +- "
+        << 1e3 * c.sigma << " ms off the SLAM, ";
+    }
+    s << c.reason
+      << ": the stamps are taken as given; if they are known to be off, give gnss_time_offset";
+    out.push_back(s.str());
+  } else if (f.time_offset_estimated && f.time_offset_sigma > kLoose) {
+    s << "clock: the GNSS " << 1e3 * f.time_offset << " +- " << 1e3 * f.time_offset_sigma
+      << " ms off the SLAM, loosely told by the speed and heading profiles (each millisecond "
+         "is a centimetre along the track at 10 m/s); if the offset is known, give "
+         "gnss_time_offset and max_time_offset 0";
+    out.push_back(s.str());
+  }
+}
+
+}  // namespace
+
 std::string controlPointShortfall(const ControlPointSelection& cp, std::size_t poses) {
   const std::size_t placed = cp.points.size() - std::min(cp.added, cp.points.size());
   if (10 * placed >= 9 * cp.requested) return "";
@@ -345,6 +375,7 @@ std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Param
          "between the passes belong to both: close those loops in the SLAM";
     out.push_back(s.str());
   }
+  if (r.fusion) clockWarnings(*r.fusion, out);
   if (r.fusion && r.fusion->time_offset_held) {
     const FusionResult& f = *r.fusion;
     std::ostringstream s;
@@ -447,8 +478,7 @@ void sheetFromFusion(const Params& params, const CancelToken& cancel, Georeferen
                      StageSeconds& seconds, Stopwatch& watch) {
   const Alignment start = robustAlignment(r.poses, r.gnss_at_pose, params);
   seconds.alignment = watch.lap();
-  r.fusion =
-      fuseTrajectory(r.poses, r.gnss.points, start.T_enu_map, fusionOptions(params), cancel);
+  r.fusion = fuseTrajectory(r.poses, r.gnss.points, start.T_enu_map, fusionOptions(params), cancel);
   r.method = Method::kFusion;
   r.clock_offset = params.gnss_time_offset + r.fusion->time_offset;
   r.clock_offset_sigma = r.fusion->time_offset_estimated ? r.fusion->time_offset_sigma

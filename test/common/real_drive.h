@@ -25,4 +25,18 @@ inline std::string findRealDrive(const std::string& name) {
   return "";
 }
 
+/// The folder of drive `name` with a ground truth (poses_tum.txt, gt_tum.txt), as findRealDrive
+/// looks for it: e.g. "kitti_lo/07". Empty where it is not found.
+inline std::string findTruthDrive(const std::string& name) {
+  namespace fs = std::filesystem;
+  std::vector<fs::path> candidates;
+  if (const char* env = std::getenv("FLEXCLOUD_DATA_DIR"))
+    candidates.emplace_back(fs::path(env) / name);
+  candidates.emplace_back(fs::path(FLEXCLOUD_REPO_DIR).parent_path() / "shared" / "data" / name);
+  for (const auto& c : candidates) {
+    if (fs::exists(c / "poses_tum.txt") && fs::exists(c / "gt_tum.txt")) return c.string();
+  }
+  return "";
+}
+
 }  // namespace flexcloud::test

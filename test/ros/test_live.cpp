@@ -199,13 +199,16 @@ TEST_F(Live, ReconfigureRecomputesAndRepublishes) {
   EXPECT_NE(after->data, before->data);  // fewer control points move the points differently
   ros::NodeHandle nh;
   const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(10.0);
+  // The 40 asked for, and those the sheet adds where the fused trajectory breaks (at most as
+  // many again on this drive).
   std::size_t spheres = 0;
-  while (spheres != 40 && ros::WallTime::now() < end) {
+  while ((spheres < 40 || spheres > 80) && ros::WallTime::now() < end) {
     const auto cps = ros::topic::waitForMessage<visualization_msgs::MarkerArray>(
         "/flexcloud/control_points", nh, ros::Duration(1.0));
     if (cps) spheres = sphereCount(*cps);
   }
-  EXPECT_EQ(spheres, 40u);
+  EXPECT_GE(spheres, 40u);
+  EXPECT_LE(spheres, 80u);
   // A value beyond the range is clamped by dynamic_reconfigure: the node says so in the log and
   // in the next result's warnings.
   const ros::Time clamped_at = ros::Time::now();

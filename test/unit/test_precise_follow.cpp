@@ -66,9 +66,8 @@ TEST(PreciseFollow, TheSlamJumpedAndTheFixesAreTakenBack) {
   auto slam = [&](std::size_t i) -> Vec3 {
     return wander[i] + (i >= 300 && i < 320 ? Vec3(0.0, 0.5, 0.0) : Vec3::Zero());
   };
-  FusionResult f = road(600, 0.02, slam, [](std::size_t i) {
-    return i >= 300 && i < 320 ? 0.0 : 1.0;
-  });
+  FusionResult f =
+      road(600, 0.02, slam, [](std::size_t i) { return i >= 300 && i < 320 ? 0.0 : 1.0; });
   ASSERT_GT(worst(f, 300, 320), 0.45);
   followPreciseGnss(f, FollowOptions{});
   EXPECT_LT(worst(f, 300, 320), 0.06);
@@ -84,9 +83,8 @@ TEST(PreciseFollow, TheSlamJumpedAndTheFixesAreTakenBack) {
 // fixes is rejected as well.
 TEST(PreciseFollow, AFarRunStaysRejectedAndALoneOutlierToo) {
   auto slam = [](std::size_t) -> Vec3 { return Vec3::Zero(); };
-  FusionResult f = road(600, 0.02, slam, [](std::size_t i) {
-    return i >= 200 && i < 260 ? 0.0 : 1.0;
-  });
+  FusionResult f =
+      road(600, 0.02, slam, [](std::size_t i) { return i >= 200 && i < 260 ? 0.0 : 1.0; });
   for (std::size_t i = 200; i < 260; ++i) f.fixes[i].position.y() += 3.0;
   f.fixes[400].position.y() += 2.0;
   followPreciseGnss(f, FollowOptions{});

@@ -74,10 +74,15 @@ std::shared_ptr<RubberSheet> sheetOf(const Drive& d, const Correction& corner_mo
 }
 
 /// Sum of squared distances of the sheet's images of the SLAM poses from the fused poses.
+/// The fit's cost: every pose's squared distance from its fused pose, a control point's own
+/// pose weighing as much as ten others (its squared distance a hundredfold).
 double cost(const RubberSheet& sheet, const Drive& d) {
+  std::vector<double> weight(d.slam.size(), 1.0);
+  for (const auto& cp : d.cps.points) weight[cp.pose_index] = 10.0;
   double s = 0.0;
   for (std::size_t i = 0; i < d.slam.size(); ++i) {
-    s += (sheet.transform(d.slam[i].position) - d.fused[i].position).squaredNorm();
+    const double e = (sheet.transform(d.slam[i].position) - d.fused[i].position).norm();
+    s += weight[i] * weight[i] * e * e;
   }
   return s;
 }
@@ -97,7 +102,8 @@ TEST(SheetFit, NothingToFitWhereTheSheetHoldsTheCorrection) {
 TEST(SheetFit, BumpsBetweenControlPointsAreFittedInTheLeastSquaresSense) {
   // The fused poses bulge 0.2 m sideways between control points, nothing at them: the sheet
   // through the control points misses the bulge entirely; the fitted one moves every control
-  // point (and its points beside) sideways by about the bulge's mean, 0.1 m.
+  // point (and its points beside) sideways toward the bulge's mean of 0.1 m, held at its own
+  // pose by that pose's weight: a few centimetres.
   const Correction none = [](const Vec3&) { return Vec3::Zero(); };
   const Correction bump = [](const Vec3& p) {
     const double s = std::sin(3.14159265358979 * p.x() / 50.0);
@@ -107,12 +113,13 @@ TEST(SheetFit, BumpsBetweenControlPointsAreFittedInTheLeastSquaresSense) {
   const auto through = sheetOf(d, none);
   const std::vector<Vec3> move = fitSheetTargets(*through, d.cps, d.beside, d.slam, d.fused);
   for (const Vec3& m : move) {
-    EXPECT_NEAR(m.y(), 0.1, 0.03) << m.transpose();
+    EXPECT_GT(m.y(), 0.005) << m.transpose();
+    EXPECT_LT(m.y(), 0.05) << m.transpose();
     EXPECT_LT(std::abs(m.x()) + std::abs(m.z()), 0.01) << m.transpose();
   }
   const auto fitted = sheetOf(d, none, move);
   const double before = cost(*through, d), after = cost(*fitted, d);
-  EXPECT_LT(after, 0.6 * before) << before << " -> " << after;
+  EXPECT_LT(after, 0.9 * before) << before << " -> " << after;  // 1.50 -> 1.32
   // A least-squares optimum (up to the small ridge): moving any control point by 1 cm along
   // any axis costs more.
   for (std::size_t k = 0; k < move.size(); ++k) {

@@ -1,11 +1,10 @@
 // The SLAM's pose-to-pose error from the fixes' third differences.
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <random>
-
-#include <Eigen/Geometry>
 
 #include "flexcloud/fusion/slam_jitter.h"
 

@@ -11,11 +11,11 @@ namespace flexcloud {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr double kSample = 0.1;        // s between the samples compared
-constexpr double kBaseline = 1.0;      // s either side of a sample its course is taken over
-constexpr double kRateStep = 0.1;      // s either side the SLAM's turn rate is taken over
-constexpr double kMinSpeed = 3.0;      // m/s: a slower course is the GNSS's noise
-constexpr double kMinTurn = 0.02;      // rad/s: a straighter sample shows no offset
+constexpr double kSample = 0.1;          // s between the samples compared
+constexpr double kBaseline = 1.0;        // s either side of a sample its course is taken over
+constexpr double kRateStep = 0.1;        // s either side the SLAM's turn rate is taken over
+constexpr double kMinSpeed = 3.0;        // m/s: a slower course is the GNSS's noise
+constexpr double kMinTurn = 0.02;        // rad/s: a straighter sample shows no offset
 constexpr std::size_t kTrendHalf = 100;  // samples either side of the heading trend (10 s)
 constexpr std::size_t kMinSamples = 20;
 // Rounds until the offset moves by less than kSettled: the trend (a moving median) takes in
@@ -24,8 +24,8 @@ constexpr std::size_t kMinSamples = 20;
 constexpr int kRounds = 15;
 constexpr double kSettled = 1e-4;
 constexpr double kTukey = 4.685;
-constexpr double kObservable = 0.1;  // s, the largest 1-sigma an offset is reported observable
-constexpr std::size_t kChunks = 4;  // stretches whose offsets must agree
+constexpr double kObservable = 0.1;   // s, the largest 1-sigma an offset is reported observable
+constexpr std::size_t kChunks = 4;    // stretches whose offsets must agree
 constexpr double kMaxInterval = 0.5;  // s, the fixes' median interval the course needs
 
 /// Positions by stamp, linear between them.
@@ -151,8 +151,7 @@ double chunkSpread(const std::vector<double>& times, const std::vector<double>& 
 
 }  // namespace
 
-ClockOffsetEstimate estimateHeadingOffset(const Trajectory& poses,
-                                          const Eigen::Vector3d& lever_arm,
+ClockOffsetEstimate estimateHeadingOffset(const Trajectory& poses, const Eigen::Vector3d& lever_arm,
                                           const std::vector<GnssPoint>& gnss, double start) {
   ClockOffsetEstimate out;
   out.sigma = kInf;

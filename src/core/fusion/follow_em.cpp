@@ -106,7 +106,8 @@ double Refinement::learnQ(std::initializer_list<int> axes) const {
 
 void Refinement::smoothAll() {
   for (int a = 0; a < 3; ++a) {
-    sm_[static_cast<std::size_t>(a)] = smoothAxis(s_, a, steps(qOf(a)), w_, qOf(a) * o_.start_metres);
+    sm_[static_cast<std::size_t>(a)] =
+        smoothAxis(s_, a, steps(qOf(a)), w_, qOf(a) * o_.start_metres);
   }
 }
 

@@ -105,8 +105,7 @@ Series gather(const FusionResult& f, const FollowOptions& o) {
     const Vec3 sd = ownStd(f, x);
     s.r.push_back(x.position - (p.position + p.orientation * f.lever_arm));
     s.var.push_back(sd.cwiseProduct(sd) + Vec3::Constant(x.slam_gap * x.slam_gap));
-    s.along.push_back(pathAt(f.poses, path, t, kp) +
-                      o.time_metres * (t - f.poses.front().stamp));
+    s.along.push_back(pathAt(f.poses, path, t, kp) + o.time_metres * (t - f.poses.front().stamp));
     s.t.push_back(t);
     s.fix.push_back(j);
   }

@@ -64,7 +64,7 @@ constexpr int kClasses = 3;
 constexpr double kClassTolerance = 1.25;
 // m: fixes whose own horizontal std-dev is below this see the SLAM's short-term errors.
 constexpr double kPreciseStd = 0.1;
-constexpr double kLeastWhite = 1e-3;  // m, the least white noise taken from a roughness
+constexpr double kLeastWhite = 1e-3;          // m, the least white noise taken from a roughness
 constexpr double kImpreciseLoss = 4.0 / 3.0;  // see below
 // Code-grade fixes (kPreciseStd or worse) are weighed with Tukey's biweight at this many times
 // outlier_threshold, which gives a fix beyond it no pull at all: under Geman-McClure a
@@ -275,7 +275,6 @@ class Fusion {
   /// measured at the solution.
   void polish();
 
-
   /// The clock to the millisecond: the factor moves a fix by velocity x dt_ (first order, off
   /// by acceleration x dt_^2 / 2), so while the remainder is more than kRestampTolerance the
   /// fixes are restamped by it, their factors, keyframes and jitter made again at their new
@@ -361,9 +360,9 @@ class Fusion {
   double start_unknown_h_ = kUnknownStdStart, start_unknown_v_ = kUnknownStdStart;
   double class_scale_[kClasses] = {1.0, 1.0, 1.0};  ///< factors on the reported std-devs
 
-  std::shared_ptr<GemanMcClure> loss_;  ///< shared by the copies, which only read it
+  std::shared_ptr<GemanMcClure> loss_;            ///< shared by the copies, which only read it
   std::shared_ptr<GemanMcClure> loss_imprecise_;  ///< for fixes of kPreciseStd or worse
-  int solver_threads_;                  ///< Ceres's threads per solve
+  int solver_threads_;                            ///< Ceres's threads per solve
   ceres::EigenQuaternionManifold quaternion_;
   FusionResult out_;
 };

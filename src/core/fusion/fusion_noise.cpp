@@ -121,8 +121,8 @@ void Fusion::estimateClassScales() {
   }
   for (int c = 0; c < kClasses; ++c) {
     if (n[c].size() < 2 * kMinFixesForNoise) continue;
-    const double scale = std::clamp(
-        std::min(robustSigma(n[c], 1.0), robustSigma(alone[c], 1.0)), 0.5, 100.0);
+    const double scale =
+        std::clamp(std::min(robustSigma(n[c], 1.0), robustSigma(alone[c], 1.0)), 0.5, 100.0);
     // A receiver within a quarter of its word is taken at it.
     if (std::abs(std::log(scale)) > std::log(kClassTolerance)) class_scale_[c] = scale;
     out_.reported_std_scale[c] = class_scale_[c];

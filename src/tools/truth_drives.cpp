@@ -1,0 +1,116 @@
+#include "truth_drives.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+
+#include "flexcloud/io/text_io.h"
+#include "flexcloud/metrics.h"
+#include "flexcloud/param_table.h"
+#include "flexcloud/params.h"
+
+namespace flexcloud::study {
+namespace {
+
+constexpr double kEnds = 5.0;    // s at either end of the drive
+constexpr double kFarFix = 3.0;  // m from the truth: a fix to be rejected
+constexpr double kSameStamp = 1e-6;
+
+std::string need(const std::string& dir, const std::string& name) {
+  const std::string path = dir + "/" + name;
+  if (!std::filesystem::exists(path)) throw Error("truth drive: " + path + " does not exist");
+  return path;
+}
+
+/// The truth at a fix's stamp: the truth shares the GNSS's instants (GNSS stamps on the truth's
+/// clock), one pose each; none where no pose has that stamp.
+const Pose* truthAt(const TruthDrive& d, double stamp) {
+  const double t = stamp + d.shift;
+  const auto it = std::lower_bound(d.truth.begin(), d.truth.end(), t - kSameStamp,
+                                   [](const Pose& p, double s) { return p.stamp < s; });
+  if (it == d.truth.end() || std::abs(it->stamp - t) > kSameStamp) return nullptr;
+  return &*it;
+}
+
+}  // namespace
+
+TruthDrive loadTruthDrive(const std::string& dir, const std::string& kind, double shift) {
+  TruthDrive d;
+  d.name = std::filesystem::path(dir).filename().string() + " " + kind;
+  d.input.poses = readTumFile(need(dir, "poses_tum.txt"));
+  d.input.local_gnss = readLocalGnssFile(need(dir, "gnss_" + kind + ".txt"));
+  d.truth = readTumFile(need(dir, "gt_tum.txt"));
+  if (d.truth.size() != d.input.poses.size()) {
+    throw Error("truth drive: " + dir + ": " + std::to_string(d.input.poses.size()) +
+                " poses but " + std::to_string(d.truth.size()) +
+                " rows of truth; row i of one file must belong to row i of the other");
+  }
+  for (auto& p : d.input.poses) p.stamp += shift;
+  for (auto& p : d.truth) p.stamp += shift;
+  d.shift = shift;
+  return d;
+}
+
+TruthScore scoreAgainstTruth(const TruthDrive& d, const GeoreferenceResult& r) {
+  TruthScore s;
+  const double first = d.truth.front().stamp, last = d.truth.back().stamp;
+  ErrorAccumulator all;
+  for (std::size_t i = 0; i < d.truth.size() && i < r.rubbersheet.size(); ++i) {
+    const double e = (r.rubbersheet[i].position - d.truth[i].position).head<2>().norm();
+    all.add(e);
+    const bool end = d.truth[i].stamp < first + kEnds || d.truth[i].stamp > last - kEnds;
+    (end ? s.ends_max : s.middle_max) = std::max(end ? s.ends_max : s.middle_max, e);
+  }
+  const ErrorStats e = all.stats();
+  s.rmse = e.rmse;
+  s.max = e.max;
+  if (!r.fusion) return s;
+  for (const FixOutcome& o : r.fusion->fixes) {
+    if (o.verdict != FixVerdict::kUsed && o.verdict != FixVerdict::kOutlier) continue;
+    const bool rejected = o.verdict == FixVerdict::kOutlier;
+    ++s.fixes;
+    s.rejected += rejected;
+    const Pose* t = truthAt(d, o.stamp);
+    if (t && (o.position - t->position).head<2>().norm() > kFarFix) {
+      ++s.far;
+      s.far_rejected += rejected;
+    }
+  }
+  return s;
+}
+
+void printTruthDriveRows(const std::vector<std::string>& dirs, int control_points,
+                         const std::vector<std::pair<std::string, std::string>>& sets,
+                         double shift) {
+  auto make = [&](bool fusion, double refine, double max_offset) {
+    Params p;
+    p.fusion = fusion;
+    p.control_points = control_points;
+    p.refine_fraction = refine;
+    p.max_time_offset = max_offset;
+    if (!fusion) p.default_std_dev = 0.03;  // urban GNSS gives none
+    for (const auto& [k, v] : sets) paramTable().setText(p, k, v);
+    return p;
+  };
+  const std::vector<std::pair<std::string, Params>> methods = {
+      {"published method", make(false, 0.0, 0.0)},
+      {"fusion: false", make(false, Params().refine_fraction, Params().max_time_offset)},
+      {"defaults", make(true, Params().refine_fraction, Params().max_time_offset)}};
+  for (const auto& dir : dirs) {
+    for (const char* kind : {"rtk", "urban"}) {
+      if (!std::filesystem::exists(dir + "/gnss_" + kind + ".txt")) continue;
+      const TruthDrive d = loadTruthDrive(dir, kind, shift);
+      for (const auto& [method, p] : methods) {
+        const GeoreferenceResult r = georeference(d.input, p);
+        const TruthScore s = scoreAgainstTruth(d, r);
+        std::printf("| %s | %s | %.3f | %.3f | %.3f | %.3f | %zu / %zu | %zu / %zu | %+.1f ms |\n",
+                    d.name.c_str(), method.c_str(), s.rmse, s.max, s.ends_max, s.middle_max,
+                    s.rejected, s.fixes, s.far_rejected, s.far, 1e3 * (r.clock_offset - shift));
+        std::fflush(stdout);
+      }
+    }
+  }
+}
+
+}  // namespace flexcloud::study

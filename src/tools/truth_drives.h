@@ -1,0 +1,45 @@
+#pragma once
+// Real drives with a ground truth (doc/ACCURACY.md): a folder with poses_tum.txt (the SLAM),
+// gt_tum.txt (the truth at the same stamps, in the frame of the GNSS) and gnss_rtk.txt /
+// gnss_urban.txt (`stamp x y z sx sy sz`, std-devs 0 where not given), as
+// ../shared/data/kitti_lo/NN holds them. A result is judged against the truth at the poses'
+// true instants: row i of the trajectory against row i of the truth, whatever clock a method
+// chose or the stamps were shifted by.
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "flexcloud/georeference.h"
+
+namespace flexcloud::study {
+
+struct TruthDrive {
+  std::string name;    ///< e.g. "07 rtk"
+  DriveInput input;    ///< poses and local GNSS
+  Trajectory truth;    ///< one per pose, in the GNSS's frame, on the poses' clock
+  double shift = 0.0;  ///< s the poses' (and the truth's) stamps were moved by
+};
+
+/// The drive in `dir` with the GNSS of `kind` (rtk or urban), the poses' stamps moved by
+/// `shift` seconds (a known clock offset: SLAM clock minus GNSS clock). Throws Error naming a
+/// missing file or one whose rows do not pair with the poses'.
+TruthDrive loadTruthDrive(const std::string& dir, const std::string& kind, double shift = 0.0);
+
+/// A result against the truth (horizontal, m): RMSE and MAX over every pose, the MAX in the
+/// drive's first and last 5 s and elsewhere; the fixes that took part in the fusion and how
+/// many it rejected, and of those more than 3 m from the truth, how many it rejected.
+struct TruthScore {
+  double rmse = 0.0, max = 0.0, ends_max = 0.0, middle_max = 0.0;
+  std::size_t fixes = 0, rejected = 0, far = 0, far_rejected = 0;
+};
+TruthScore scoreAgainstTruth(const TruthDrive& d, const GeoreferenceResult& r);
+
+/// The defaults, `fusion: false` and the published method on each drive and GNSS kind in
+/// `dirs` (the kinds a folder lacks are left out), one markdown row each; `sets` are applied
+/// to every method.
+void printTruthDriveRows(const std::vector<std::string>& dirs, int control_points,
+                         const std::vector<std::pair<std::string, std::string>>& sets,
+                         double shift);
+
+}  // namespace flexcloud::study
