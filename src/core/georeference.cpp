@@ -229,6 +229,7 @@ namespace {
 struct RejectedStretch {
   double begin = 0.0, end = 0.0, worst = 0.0;
   std::size_t fixes = 0;
+  std::size_t rough = 0;  ///< of its fixes, those rougher than their std-devs claim
 };
 
 /// Stretches of at least kStretchSeconds and kStretchFixes consecutive fixes (of those that
@@ -262,6 +263,7 @@ std::vector<RejectedStretch> rejectedStretches(const FusionResult& f, bool given
     run.end = o->stamp;
     run.worst = std::max(run.worst, o->residual);
     ++run.fixes;
+    run.rough += o->rough ? 1 : 0;
   }
   close();
   std::sort(out.begin(), out.end(), [](const RejectedStretch& a, const RejectedStretch& b) {
@@ -272,6 +274,28 @@ std::vector<RejectedStretch> rejectedStretches(const FusionResult& f, bool given
 
 /// The three longest rejected stretches of a kind, one warning each; `what` follows the
 /// stretch's span and fix count.
+/// What a stretch of fixes that claimed RTK precision was: the GNSS's fault where its fixes
+/// scatter more than they claim (they agree neither with each other nor with the SLAM's
+/// short-term motion), else disputed between the two, and which side was followed and why.
+std::string claimedVerdict(const RejectedStretch& run, const FusionResult& f) {
+  if (2 * run.rough >= run.fixes) {
+    return " though their std-dev claimed RTK precision (under 5 cm): they scatter more than "
+           "they claim and part from the SLAM's short-term motion, multipath or a false RTK "
+           "fix, not a SLAM error; those fixes were left out";
+  }
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(3);
+  s << "; their std-dev claimed RTK precision (under 5 cm) and they agree with each other: "
+       "disputed between the GNSS and the SLAM. The SLAM's shape was followed, since the "
+       "stretch lies further from it than this SLAM's short-term errors reach (its excess over "
+       "the fixes' noise is "
+    << f.follow.excess
+    << " m): multipath without scatter, or a SLAM that failed there (with fusion: false the "
+       "GNSS is followed)";
+  return s.str();
+}
+
 void warnRejectedStretches(const FusionResult& f, bool given, const std::string& what,
                            std::vector<std::string>& out) {
   const std::vector<RejectedStretch> runs = rejectedStretches(f, given);
@@ -281,7 +305,7 @@ void warnRejectedStretches(const FusionResult& f, bool given, const std::string&
     s.precision(1);
     s << "GNSS from " << runs[k].begin << " to " << runs[k].end << " s (" << runs[k].fixes
       << " fixes" << (given ? ")" : ", no std-dev given)") << " up to " << runs[k].worst
-      << " m off the fused trajectory" << what;
+      << " m off the fused trajectory" << (given ? claimedVerdict(runs[k], f) : what);
     if (k == 2 && runs.size() > 3) s << " (and " << runs.size() - 3 << " more such stretches)";
     out.push_back(s.str());
   }
@@ -390,10 +414,7 @@ std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Param
     out.push_back(s.str());
   }
   if (r.fusion) {
-    warnRejectedStretches(*r.fusion, true,
-                          " though their std-dev claimed RTK precision (under 5 cm): multipath "
-                          "or a false RTK fix, not a SLAM error; those fixes were left out",
-                          out);
+    warnRejectedStretches(*r.fusion, true, "", out);
     warnRejectedStretches(
         *r.fusion, false,
         ", which keeps the SLAM's shape there; those fixes were left out. Without a std-dev "

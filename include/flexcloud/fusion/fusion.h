@@ -55,6 +55,9 @@ struct FixOutcome {
   /// a stop of a SLAM that keeps a pose every few metres): added to std_dev as well.
   double slam_gap = 0.0;
   double weight = 0.0;  ///< final weight of the robust loss, 0..1
+  /// Precise by its std-dev, but its neighbours and it scatter more than that claims: it took no
+  /// part in the refinement by precise fixes (precise_follow.h).
+  bool rough = false;
   FixVerdict verdict = FixVerdict::kUsed;
 };
 

@@ -41,7 +41,7 @@ struct FollowOptions {
   double time_metres = 1.0;     ///< m of path a second counts for (the SLAM creeps at a stop)
   double start_metres = 100.0;  ///< m of path the correction's first value may have drifted
   double start_q = 1e-4;        ///< m^2 per m, q of the first round
-  int rounds = 8;               ///< EM rounds
+  int rounds = 5;               ///< EM rounds
   std::size_t min_fixes = 10;   ///< fewer precise fixes: nothing is refined
 };
 

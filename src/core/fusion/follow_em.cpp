@@ -11,7 +11,7 @@ namespace {
 
 constexpr double kTwoPi = 6.283185307179586;
 constexpr double kLogQLow = -9.0, kLogQHigh = 0.0;  // log10 of q's range, m^2 per m
-constexpr int kGoldenSteps = 28;
+constexpr int kGoldenSteps = 20;
 constexpr double kMinWeight = 1e-6;
 constexpr double kFarSigmas = 6.0;
 

@@ -202,8 +202,10 @@ FusionResult fuseTrajectory(const Trajectory& poses, const std::vector<GnssPoint
                             const Eigen::Isometry3d& T_enu_map, const FusionOptions& options,
                             const CancelToken& cancel) {
   if (poses.size() < 2) throw Error("fusion: at least 2 poses are needed");
+  const auto t0 = std::chrono::steady_clock::now();
   FusionResult out = fusion_graph::Fusion(poses, gnss, options, cancel).run(T_enu_map);
   followPreciseGnss(out, FollowOptions{});
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }
 

@@ -84,6 +84,8 @@ void followPreciseGnss(FusionResult& f, const FollowOptions& options) {
   std::vector<Vec3> positions;
   for (std::size_t j : all.fix) positions.push_back(f.fixes[j].position);
   const Series s = follow::keepTheSmooth(all, positions);
+  for (std::size_t j : all.fix) f.fixes[j].rough = true;
+  for (std::size_t j : s.fix) f.fixes[j].rough = false;
   if (s.size() < options.min_fixes) return;
   std::vector<double> start;
   for (std::size_t j : s.fix) start.push_back(f.fixes[j].weight);
