@@ -201,9 +201,10 @@ TEST_F(Tools, ConfigFileAndFlagsSetTheParameters) {
                " --control-points 30 --out " + o)
                 .code,
             0);  // the flag wins over the file
-  EXPECT_EQ(readJson(o + "/report.json")["counts"]["control_points_requested"], 30);
+  const nlohmann::json flagged = readJson(o + "/report.json");
+  EXPECT_EQ(flagged["counts"]["control_points_requested"], 30);
   // The simulated drive keeps an even speed: the clock is not told, and only that is said.
-  for (const std::string w : readJson(o + "/report.json")["warnings"]) {
+  for (const std::string w : flagged["warnings"]) {
     EXPECT_EQ(w.rfind("clock: ", 0), 0u) << w;
   }
   // More than the drive's poses can carry: capped, and the report says so.
