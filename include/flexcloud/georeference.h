@@ -18,6 +18,7 @@
 #include "flexcloud/sheet/beside_points.h"
 #include "flexcloud/sheet/control_points.h"
 #include "flexcloud/sheet/rubber_sheet.h"
+#include "flexcloud/uncertainty/pose_sigma.h"
 #include "flexcloud/warp/cloud_warp.h"
 
 namespace flexcloud {
@@ -97,6 +98,8 @@ struct GeoreferenceResult {
   std::vector<double> residual_aligned;  ///< per control point, metres
   std::vector<double> residual_rubbersheet;
   RevisitCheck revisits;
+  /// How far each pose of `rubbersheet` may lie from the truth (pose_sigma.h).
+  PoseSigmas sigma;
   StageSeconds seconds;
 };
 
@@ -120,6 +123,10 @@ double shareFarFromPoses(const GeoreferenceResult& r, const WarpStats& map, doub
 /// control points short of those asked for, and revisit conflicts.
 std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Params& params,
                                         const WarpStats* map, const std::string& map_frame = "map");
+
+/// The fixes the result rests on, at their instants on the SLAM clock: the fusion's inliers, or
+/// without the fusion the fixes a control point may come from.
+std::vector<SigmaFix> sigmaFixes(const GeoreferenceResult& r, const Params& params);
 
 /// The interpolated GNSS at every matched pose, stamped like the pose (identity orientation).
 Trajectory gnssTrajectory(const GeoreferenceResult& r);

@@ -476,6 +476,27 @@ std::vector<GnssPoint> controlPointFixes(const Params& params, const Georeferenc
   return out;
 }
 
+}  // namespace
+
+std::vector<SigmaFix> sigmaFixes(const GeoreferenceResult& r, const Params& params) {
+  std::vector<SigmaFix> out;
+  if (r.fusion && r.method == Method::kFusion) {
+    for (const FixOutcome& f : r.fusion->fixes) {
+      if (f.verdict != FixVerdict::kUsed) continue;
+      out.push_back({f.stamp + r.fusion->time_offset, f.position, f.std_dev.x(), f.std_dev.z()});
+    }
+    return out;
+  }
+  const double estimated = r.clock_offset - params.gnss_time_offset;
+  for (const GnssPoint& g : controlPointFixes(params, r)) {
+    out.push_back({g.stamp + estimated, g.position, g.std_dev.head<2>().norm() / std::sqrt(2.0),
+                   g.std_dev.z()});
+  }
+  return out;
+}
+
+namespace {
+
 /// Without the fusion, the clock offset the speed profiles show (clock_offset.h), from the
 /// fixes a control point may come from: applied on top of gnss_time_offset where they show one
 /// beyond kSignificant sigmas of zero (max_time_offset 0: none asked for). Nothing refines it,
@@ -578,6 +599,7 @@ GeoreferenceResult georeference(const DriveInput& input, const Params& params,
     r.residual_rubbersheet.push_back((r.rubbersheet[cp.pose_index].position - cp.target).norm());
   }
   r.revisits = checkRevisits(r.control_points, r.poses, r.T_enu_map, r.gnss_at_pose);
+  r.sigma = poseSigmas(r.rubbersheet, r.aligned, sigmaFixes(r, params));
   r.seconds.trajectory_warp = watch.lap();
   return r;
 }

@@ -91,6 +91,20 @@ json fusionJson(const FusionResult& f) {
           {"seconds", f.seconds}};
 }
 
+/// How far the result may lie from the truth (pose_sigma.h).
+json sigmaJson(const PoseSigmas& s) {
+  return {
+      {"file", "trajectory_sigma.txt"},
+      {"sigma_h_median_m", finiteOrNull(s.median_h)},
+      {"sigma_h_p95_m", finiteOrNull(s.p95_h)},
+      {"sigma_v_median_m", finiteOrNull(s.median_v)},
+      {"worst_stretch",
+       {{"from", s.worst.from}, {"to", s.worst.to}, {"sigma_h_m", finiteOrNull(s.worst.sigma_h)}}},
+      {"fixes", s.fixes},
+      {"walk_h_m2_per_m", s.walk_h},
+      {"walk_v_m2_per_m", s.walk_v}};
+}
+
 /// The clocks: what the trajectories are stamped with, and the offset to the GNSS's.
 json clockJson(const GeoreferenceResult& r) {
   json j = {{"trajectories", "SLAM clock (the poses' own stamps)"},
@@ -152,6 +166,7 @@ const std::vector<std::string> kOutputNames = {kMapFile,
                                                "trajectory_aligned.txt",
                                                "trajectory_rubbersheet.txt",
                                                "trajectory_rubbersheet_gnss_clock.txt",
+                                               "trajectory_sigma.txt",
                                                "trajectory_fused.txt",
                                                "trajectory_fused_gnss_clock.txt",
                                                "control_points.txt",
@@ -170,6 +185,7 @@ void writeRunFiles(Staging& stage, const GeoreferenceResult& r, const RunContext
   writeTextFile(stage.path("trajectory_rubbersheet.txt"), tumText(r.rubbersheet, r, false));
   writeTextFile(stage.path("trajectory_rubbersheet_gnss_clock.txt"),
                 tumText(r.rubbersheet, r, true));
+  writeTextFile(stage.path("trajectory_sigma.txt"), sigmaText(r));
   writeTextFile(stage.path("control_points.txt"), controlPointsText(r));
   if (r.fusion) {
     writeTextFile(stage.path("trajectory_fused.txt"), tumText(r.fusion->poses, r, false));
@@ -281,6 +297,7 @@ std::string reportJson(const GeoreferenceResult& r, const Params& params, const 
   j["metrics"] = {{"aligned", stats(r.metrics_aligned)},
                   {"rubbersheet", stats(r.metrics_rubbersheet)}};
   j["method"] = toString(r.method);
+  j["uncertainty"] = sigmaJson(r.sigma);
   j["clock"] = clockJson(r);
   if (r.fusion) {
     if (r.method == Method::kFusion) j["metrics"]["rubbersheet_vs_fused"] = stats(r.metrics_fused);
@@ -347,6 +364,20 @@ std::string controlPointsText(const GeoreferenceResult& r) {
       << ' ' << r.residual_rubbersheet[i] << '\n';
   }
   return s.str();
+}
+
+std::string sigmaText(const GeoreferenceResult& r) {
+  std::string text =
+      "# how far each pose of trajectory_rubbersheet.txt may lie from the truth: stamp (SLAM "
+      "clock, as there) sigma_h_m (1-sigma per horizontal axis; 95 % within 2.45 of it) "
+      "sigma_v_m (1-sigma vertical; 95 % within 1.96 of it)\n";
+  char line[96];
+  for (std::size_t i = 0; i < r.rubbersheet.size() && i < r.sigma.h.size(); ++i) {
+    std::snprintf(line, sizeof(line), "%.9f %.4f %.4f\n", r.rubbersheet[i].stamp, r.sigma.h[i],
+                  r.sigma.v[i]);
+    text += line;
+  }
+  return text;
 }
 
 std::string gnssTum(const GeoreferenceResult& r) { return tumText(gnssTrajectory(r), r, false); }

@@ -237,6 +237,17 @@ DriveInput loadDrive(const Options& o, const Progress& log, std::string& map_fra
   return in;
 }
 
+/// "N of M fixes rejected" (the fusion's outliers among the fixes it judged).
+std::string rejectedShare(const GeoreferenceResult& r) {
+  if (!r.fusion) return "no fixes rejected (fusion off)";
+  std::size_t judged = 0, rejected = 0;
+  for (const FixOutcome& f : r.fusion->fixes) {
+    judged += f.verdict == FixVerdict::kUsed || f.verdict == FixVerdict::kOutlier;
+    rejected += f.verdict == FixVerdict::kOutlier;
+  }
+  return std::to_string(rejected) + " of " + std::to_string(judged) + " fixes rejected";
+}
+
 void printSummary(const GeoreferenceResult& r, const Params& params, const MapInfo* map,
                   const std::string& out, const std::string& map_frame) {
   char line[512];
@@ -250,10 +261,18 @@ void printSummary(const GeoreferenceResult& r, const Params& params, const MapIn
                   r.datum->lon, r.datum->alt);
     std::cout << line;
   }
+  std::snprintf(
+      line, sizeof(line),
+      "  from the truth   sigma per axis: median %.3f m, 95th percentile %.3f m (the 95 %% "
+      "circle: 2.45 sigma); least certain %.3f m at %.1f-%.1f s; %s, rigid "
+      "scale %.4f, %s\n",
+      r.sigma.median_h, r.sigma.p95_h, r.sigma.worst.sigma_h, r.sigma.worst.from, r.sigma.worst.to,
+      toString(r.method).c_str(), r.scale, rejectedShare(r).c_str());
+  std::cout << line;
   const auto& a = r.metrics_aligned;
   const auto& b = r.metrics_rubbersheet;
   std::snprintf(line, sizeof(line),
-                "  trajectory vs GNSS  aligned: MAE %.3f STD %.3f MAX %.3f m | rubber sheet: MAE "
+                "  fit to the GNSS  aligned: MAE %.3f STD %.3f MAX %.3f m | rubber sheet: MAE "
                 "%.3f STD %.3f MAX %.3f m\n",
                 a.mae, a.std, a.max, b.mae, b.std, b.max);
   std::cout << line;

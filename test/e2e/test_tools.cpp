@@ -4,6 +4,7 @@
 #include <pcl/io/pcd_io.h>
 #include <sys/wait.h>
 
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -73,6 +74,45 @@ class Tools : public ::testing::Test {
 };
 fs::path Tools::dir_;
 
+/// Rows of numbers of a text file, '#' lines skipped.
+std::vector<std::vector<double>> readRows(const std::string& path) {
+  std::vector<std::vector<double>> rows;
+  std::ifstream in(path);
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream ss(line);
+    rows.emplace_back(std::istream_iterator<double>(ss), std::istream_iterator<double>());
+  }
+  return rows;
+}
+
+/// trajectory_sigma.txt pairs with trajectory_rubbersheet.txt, the summary leads with it, and
+/// at least 85 % of the poses lie within 2.45 sigma of the simulator's truth (100 % here).
+void expectSigmasCoverTheTruth(const std::string& sim, const std::string& o,
+                               const std::string& output, const nlohmann::json& j) {
+  const auto sig = readRows(o + "/trajectory_sigma.txt");
+  const auto traj = readRows(o + "/trajectory_rubbersheet.txt");
+  const auto truth = readRows(sim + "/truth_trajectory.txt");
+  ASSERT_EQ(sig.size(), traj.size());
+  ASSERT_EQ(truth.size(), traj.size());
+  std::size_t within = 0;
+  for (std::size_t i = 0; i < traj.size(); ++i) {
+    ASSERT_EQ(sig[i].size(), 3u);
+    EXPECT_NEAR(sig[i][0], traj[i][0], 1e-6);
+    EXPECT_NEAR(truth[i][0], traj[i][0], 1e-6);
+    within += std::hypot(traj[i][1] - truth[i][1], traj[i][2] - truth[i][2]) <= 2.45 * sig[i][1];
+  }
+  EXPECT_GE(static_cast<double>(within) / static_cast<double>(traj.size()), 0.85);
+  const auto& u = j["uncertainty"];
+  EXPECT_GT(u["sigma_h_median_m"].get<double>(), 0.0);
+  EXPECT_GE(u["sigma_h_p95_m"].get<double>(), u["sigma_h_median_m"].get<double>());
+  EXPECT_GE(u["worst_stretch"]["sigma_h_m"].get<double>(), u["sigma_h_p95_m"].get<double>());
+  EXPECT_LT(u["worst_stretch"]["from"].get<double>(), u["worst_stretch"]["to"].get<double>());
+  const auto lead = output.find("from the truth   sigma per axis: median ");
+  ASSERT_NE(lead, std::string::npos) << output;
+  EXPECT_LT(lead, output.find("fit to the GNSS  aligned: MAE"));
+}
+
 TEST_F(Tools, BagWithMapGivesEveryOutputAndAccurateMap) {
   const std::string o = out("bag");
   const Result r = sh(bin("georeference") + " --bag " + sim() + "/drive.bag --map " + sim() +
@@ -81,7 +121,7 @@ TEST_F(Tools, BagWithMapGivesEveryOutputAndAccurateMap) {
   for (const char* f :
        {"map_georeferenced.pcd", "trajectory_gnss.txt", "trajectory_slam.txt",
         "trajectory_aligned.txt", "trajectory_rubbersheet.txt", "control_points.txt", "origin.yaml",
-        "report.json", "trajectory_fused.txt", "gnss_fixes.txt"}) {
+        "report.json", "trajectory_fused.txt", "gnss_fixes.txt", "trajectory_sigma.txt"}) {
     EXPECT_TRUE(fs::exists(o + "/" + f)) << f;
   }
   for (const auto& e : fs::directory_iterator(o)) {
@@ -97,6 +137,7 @@ TEST_F(Tools, BagWithMapGivesEveryOutputAndAccurateMap) {
   EXPECT_GT(j["map_vs_truth"]["aligned"]["rmse"].get<double>(), 1.0);
   EXPECT_LT(j["metrics"]["rubbersheet"]["mae"].get<double>(), 0.1);
   EXPECT_EQ(j["T_enu_map"].size(), 4u);
+  expectSigmasCoverTheTruth(sim(), o, r.output, j);
   // What the fusion did with the GNSS: every fix accounted for, the estimates reported.
   const auto& fu = j["fusion"];
   const std::size_t judged = fu["fixes_used"].get<std::size_t>() +

@@ -37,6 +37,19 @@ std::vector<std::string> drives() {
                     "set FLEXCLOUD_DATA_DIR); skipped";                                      \
   }
 
+/// Share of the poses whose error against the truth lies within k of their sigma, horizontal
+/// (per-axis sigma, the 2D error) or vertical.
+double shareWithin(const study::TruthDrive& d, const GeoreferenceResult& r, double k,
+                   bool vertical) {
+  std::size_t in = 0;
+  for (std::size_t i = 0; i < d.truth.size(); ++i) {
+    const Eigen::Vector3d e = r.rubbersheet[i].position - d.truth[i].position;
+    const double err = vertical ? std::abs(e.z()) : e.head<2>().norm();
+    in += err <= k * (vertical ? r.sigma.v[i] : r.sigma.h[i]);
+  }
+  return static_cast<double>(in) / static_cast<double>(d.truth.size());
+}
+
 Params simpleWay() {
   Params p;
   p.fusion = false;
@@ -125,6 +138,36 @@ TEST(TruthDrives, AKnownClockOffsetIsFoundOrHonestlyNot) {
           EXPECT_LE(std::abs(error), 0.005) << d.name << " " << shift;
         }
       }
+    }
+  }
+}
+
+// The pose sigmas against the truth: the share of poses within the 95 % circle (2.45 sigma)
+// and the vertical 95 % (1.96 sigma), and the median sigma at most twice the RMSE. As
+// calibrated today (doc/ACCURACY.md): RTK at least 80 % (02: 81 %) and 75 % vertical; urban at
+// least 85 % and 65 % vertical (03: 70 %), most of them above 99 % (more cautious than the 95 %
+// aimed at). RTK 03 is left out: its SLAM lags its truth by about 20 ms, which is read as a
+// clock offset of 17 ms at an 8 ms sigma, and the sigmas do not carry the clock's.
+TEST(TruthDrives, PoseSigmasCoverTheErrorsAgainstTheTruth) {
+  const std::vector<std::string> dirs = drives();
+  SKIP_WITHOUT_DRIVES(dirs);
+  for (const auto& dir : dirs) {
+    for (const std::string kind : {"rtk", "urban"}) {
+      if (!std::filesystem::exists(dir + "/gnss_" + kind + ".txt")) continue;
+      const study::TruthDrive d = study::loadTruthDrive(dir, kind);
+      if (d.name == "03 rtk") continue;
+      const GeoreferenceResult r = georeference(d.input, Params{});
+      const study::TruthScore s = study::scoreAgainstTruth(d, r);
+      const double h = shareWithin(d, r, 2.45, false), v = shareWithin(d, r, 1.96, true);
+      std::printf(
+          "%s: %.1f %% within 2.45 sigma, %.1f %% within 1.96 sigma vertical, median "
+          "sigma %.3f m, RMSE %.3f m\n",
+          d.name.c_str(), 100.0 * h, 100.0 * v, r.sigma.median_h, s.rmse);
+      const bool rtk = kind == std::string("rtk");
+      EXPECT_GE(h, rtk ? 0.80 : 0.85) << d.name;
+      EXPECT_GE(v, rtk ? 0.75 : 0.65) << d.name;
+      EXPECT_LE(r.sigma.median_h, 2.0 * s.rmse) << d.name;
+      EXPECT_GT(r.sigma.median_h, 0.0) << d.name;
     }
   }
 }

@@ -75,6 +75,9 @@ std::string gnssTum(const GeoreferenceResult& r);
 /// `poses` as TUM text under a comment line that says their clock: the SLAM's (the poses' own
 /// stamps), or with `gnss_clock` the GNSS's (the stamps less r.clock_offset), as a GNSS-clock
 /// reference in evo needs them.
+/// trajectory_sigma.txt: per pose of the result its stamp and horizontal and vertical sigma.
+std::string sigmaText(const GeoreferenceResult& r);
+
 std::string tumText(Trajectory poses, const GeoreferenceResult& r, bool gnss_clock);
 /// Every fix the fusion judged, with its residual, weight and verdict (gnss_fixes.txt).
 std::string fixesText(const GeoreferenceResult& r);

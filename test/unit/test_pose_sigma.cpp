@@ -1,0 +1,113 @@
+// The random walk behind the pose sigmas against closed forms and a simulated walk, and the
+// sigmas' shape: least where fixes are dense, growing across a gap and beyond the last fix.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "flexcloud/uncertainty/pose_sigma.h"
+#include "uncertainty/random_walk.h"
+
+namespace flexcloud {
+namespace {
+
+// Two observations 10 m apart: the smoothed variance at the first is that of two readings of
+// the level, one of them through the walk's 10 m: 1 / (1/R1 + 1/(R2 + 10 q)), with the broad
+// prior's share (1e-4 relative) left in the tolerance.
+TEST(RandomWalk, TwoObservationsMatchTheClosedForm) {
+  walk::Series s{{0.0, 0.0}, {0.04, 0.09}, {0.0, 10.0}};
+  const double q = 0.002;
+  const std::vector<double> v = walk::smoothedVariance(s, q);
+  ASSERT_EQ(v.size(), 2u);
+  EXPECT_NEAR(v[0], 1.0 / (1.0 / 0.04 + 1.0 / (0.09 + 10.0 * q)), 1e-5);
+  EXPECT_NEAR(v[1], 1.0 / (1.0 / 0.09 + 1.0 / (0.04 + 10.0 * q)), 1e-5);
+}
+
+// Dense, evenly spaced observations of a walk: in the middle of the series the smoothed
+// variance joins the forward filter's steady state (P_f = (-qd + sqrt(qd^2 + 4 qd R)) / 2)
+// with the backward filter's prediction to the same place (P_f + qd, by symmetry).
+TEST(RandomWalk, SteadyStateOfADenseSeries) {
+  walk::Series s;
+  const double r = 0.01, q = 1e-4, d = 1.0;
+  for (int i = 0; i < 400; ++i) {
+    s.value.push_back(0.0), s.var.push_back(r), s.along.push_back(i * d);
+  }
+  const double qd = q * d;
+  const double pf = (-qd + std::sqrt(qd * qd + 4.0 * qd * r)) / 2.0;  // filtered
+  const double pp = pf + qd;                                          // predicted
+  // Smoothed at a middle observation: the filtered one combined with the backward filter's
+  // prediction, which is pp by symmetry.
+  const double ps = 1.0 / (1.0 / pf + 1.0 / pp);
+  const std::vector<double> v = walk::smoothedVariance(s, q);
+  EXPECT_NEAR(v[200], ps, 1e-3 * ps);
+}
+
+// A simulated walk of known intensity read through white noise: learned within 25 %.
+TEST(RandomWalk, LearnsTheIntensityOfASimulatedWalk) {
+  std::mt19937 rng(7);
+  std::normal_distribution<double> n(0.0, 1.0);
+  const double q = 4e-4, r = 0.02 * 0.02;
+  walk::Series x, y;
+  double wx = 0.0, wy = 0.0;
+  for (int i = 0; i < 6000; ++i) {
+    wx += std::sqrt(q) * n(rng), wy += std::sqrt(q) * n(rng);
+    x.value.push_back(wx + 0.02 * n(rng)), y.value.push_back(wy + 0.02 * n(rng));
+    x.var.push_back(r), y.var.push_back(r);
+    x.along.push_back(i), y.along.push_back(i);
+  }
+  const double learned = walk::learnIntensity({x, y});
+  EXPECT_NEAR(learned / q, 1.0, 0.25) << learned;
+}
+
+Trajectory straight(int n, double step) {
+  Trajectory t;
+  for (int i = 0; i < n; ++i) {
+    Pose p;
+    p.stamp = 0.1 * i;
+    p.position = Eigen::Vector3d(step * i, 0.0, 0.0);
+    t.push_back(p);
+  }
+  return t;
+}
+
+// 1 km at 10 m/s, the SLAM drifting as a walk of 5 cm per square root of a metre, a fix every
+// 1 m with 2 cm of noise but none from 300 to 500 m or beyond 900 m: the sigma is least among the
+// fixes, largest in the middle of the gap, and grows past the last fix.
+TEST(PoseSigmas, GrowInGapsAndBeyondTheLastFix) {
+  const Trajectory t = straight(1001, 1.0);  // the truth, and the result that follows it
+  Trajectory slam = t;
+  std::mt19937 rng(3);
+  std::normal_distribution<double> n(0.0, 0.02);
+  std::vector<SigmaFix> fixes;
+  double drift = 0.0;
+  for (int i = 0; i <= 1000; ++i) {
+    drift += 2.5 * n(rng);  // n is 2 cm: 5 cm per metre
+    slam[i].position.x() -= drift;
+    if ((i > 300 && i < 500) || i > 900) continue;
+    fixes.push_back(
+        {t[i].stamp, t[i].position + Eigen::Vector3d(n(rng), n(rng), n(rng)), 0.02, 0.02});
+  }
+  const PoseSigmas s = poseSigmas(t, slam, fixes);
+  ASSERT_EQ(s.h.size(), t.size());
+  EXPECT_EQ(s.fixes, fixes.size());
+  EXPECT_LT(s.h[150], s.h[400]);
+  EXPECT_GT(s.h[400], s.h[320]);
+  EXPECT_GT(s.h[1000], s.h[950]);
+  EXPECT_GT(s.h[950], s.h[890]);
+  EXPECT_LT(s.h[150], 0.03);
+  EXPECT_GE(s.worst.from, t[300].stamp);
+  EXPECT_LE(s.worst.to, t[1000].stamp);
+  EXPECT_DOUBLE_EQ(s.worst.sigma_h, *std::max_element(s.h.begin(), s.h.end()));
+}
+
+// No fix the result rests on: nothing is known, and that is what is said.
+TEST(PoseSigmas, WithoutFixesEverySigmaIsInfinite) {
+  const Trajectory t = straight(10, 1.0);
+  const PoseSigmas s = poseSigmas(t, t, {});
+  ASSERT_EQ(s.h.size(), 10u);
+  EXPECT_TRUE(std::isinf(s.h[3]));
+  EXPECT_TRUE(std::isinf(s.median_h));
+}
+
+}  // namespace
+}  // namespace flexcloud
