@@ -37,6 +37,7 @@ struct StageSeconds {
   double fusion = 0.0;
   double control_points = 0.0;  ///< selection, refinement and the sheet
   double trajectory_warp = 0.0;
+  double sigma = 0.0;  ///< the pose sigmas (pose_sigma.h)
 };
 
 /// The method whose control points made the sheet.
@@ -127,6 +128,10 @@ std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Param
 /// The fixes the result rests on, at their instants on the SLAM clock: the fusion's inliers, or
 /// without the fusion the fixes a control point may come from.
 std::vector<SigmaFix> sigmaFixes(const GeoreferenceResult& r, const Params& params);
+
+/// Where a clock offset was estimated and applied, the 1-sigma of the most precise profile that
+/// told it (speed or heading), s; 0 where none was applied.
+double estimatedClockSigma(const GeoreferenceResult& r);
 
 /// The interpolated GNSS at every matched pose, stamped like the pose (identity orientation).
 Trajectory gnssTrajectory(const GeoreferenceResult& r);

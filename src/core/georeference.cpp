@@ -495,6 +495,20 @@ std::vector<SigmaFix> sigmaFixes(const GeoreferenceResult& r, const Params& para
   return out;
 }
 
+double estimatedClockSigma(const GeoreferenceResult& r) {
+  double sigma = std::numeric_limits<double>::infinity();
+  const auto take = [&](double s) {
+    if (std::isfinite(s) && s > 0.0) sigma = std::min(sigma, s);
+  };
+  if (r.fusion && r.fusion->time_offset != 0.0) {
+    take(r.fusion->time_offset_speed_sigma);
+    take(r.fusion->clock.heading.sigma);
+  } else if (!r.fusion && r.speed_clock && std::isfinite(r.clock_offset_sigma)) {
+    take(r.speed_clock->sigma);
+  }
+  return std::isfinite(sigma) ? sigma : 0.0;
+}
+
 namespace {
 
 /// Without the fusion, the clock offset the speed profiles show (clock_offset.h), from the
@@ -599,8 +613,13 @@ GeoreferenceResult georeference(const DriveInput& input, const Params& params,
     r.residual_rubbersheet.push_back((r.rubbersheet[cp.pose_index].position - cp.target).norm());
   }
   r.revisits = checkRevisits(r.control_points, r.poses, r.T_enu_map, r.gnss_at_pose);
-  r.sigma = poseSigmas(r.rubbersheet, r.aligned, sigmaFixes(r, params));
   r.seconds.trajectory_warp = watch.lap();
+  SigmaContext sigma_context;
+  sigma_context.fused = r.fusion && r.method == Method::kFusion ? &r.fusion->poses : nullptr;
+  sigma_context.clock_sigma = estimatedClockSigma(r);
+  sigma_context.lever_arm = r.fusion ? r.fusion->lever_arm : lever;
+  r.sigma = poseSigmas(r.rubbersheet, r.aligned, sigmaFixes(r, params), sigma_context);
+  r.seconds.sigma = watch.lap();
   return r;
 }
 

@@ -318,6 +318,7 @@ std::string reportJson(const GeoreferenceResult& r, const Params& params, const 
                   {"control_points", s.control_points},
                   {"fusion", s.fusion},
                   {"trajectory_warp", s.trajectory_warp},
+                  {"sigma", s.sigma},
                   {"map_read", map ? map->read_seconds : 0.0},
                   {"map_location_grid", map ? map->grid_seconds : 0.0},
                   {"map_warp", map ? map->warp_seconds : 0.0},

@@ -499,9 +499,9 @@ void oneHourDrive(const Options& o) {
   std::printf(
       "| - | pipeline without map, one-hour drive (%zu poses, %zu fixes) | 2000 (%zu "
       "tetrahedra) | %.3f s | | interpolation %.3f, alignment %.3f, control points %.3f, "
-      "fusion %.3f, trajectory %.3f s; trajectory RMSE vs the truth %.3f m |\n",
+      "fusion %.3f, trajectory %.3f, pose sigmas %.3f s; trajectory RMSE vs the truth %.3f m |\n",
       r.poses.size(), r.gnss.points.size(), r.sheet->numTetrahedra(), s, t.interpolation,
-      t.alignment, t.control_points, t.fusion, t.trajectory_warp,
+      t.alignment, t.control_points, t.fusion, t.trajectory_warp, t.sigma,
       sim::trajectoryTruthError(r.rubbersheet, d.truth).rmse);
 }
 
@@ -515,9 +515,11 @@ void realDrive(const Options& o) {
   const auto& t = r.seconds;
   std::printf(
       "| - | pipeline without map, real drive %s (%zu poses, %zu fixes), defaults | 200 | %.3f s | "
-      "| fusion %.3f s (%d stages, %zu keyframes), control points %.3f s |\n",
+      "| fusion %.3f s (%d stages, %zu keyframes), control points %.3f s, pose sigmas %.3f s "
+      "(%.1f %% of the rest) |\n",
       fs::path(o.real).filename().c_str(), r.poses.size(), r.gnss.points.size(), s, t.fusion,
-      r.fusion->stages, r.fusion->keyframes, t.control_points);
+      r.fusion->stages, r.fusion->keyframes, t.control_points, t.sigma,
+      100.0 * t.sigma / std::max(s - t.sigma, 1e-9));
   std::fflush(stdout);
 }
 

@@ -17,7 +17,7 @@ namespace {
 TEST(RandomWalk, TwoObservationsMatchTheClosedForm) {
   walk::Series s{{0.0, 0.0}, {0.04, 0.09}, {0.0, 10.0}};
   const double q = 0.002;
-  const std::vector<double> v = walk::smoothedVariance(s, q);
+  const std::vector<double> v = walk::smoothedVariance(s, {q, 0.0});
   ASSERT_EQ(v.size(), 2u);
   EXPECT_NEAR(v[0], 1.0 / (1.0 / 0.04 + 1.0 / (0.09 + 10.0 * q)), 1e-5);
   EXPECT_NEAR(v[1], 1.0 / (1.0 / 0.09 + 1.0 / (0.04 + 10.0 * q)), 1e-5);
@@ -38,7 +38,7 @@ TEST(RandomWalk, SteadyStateOfADenseSeries) {
   // Smoothed at a middle observation: the filtered one combined with the backward filter's
   // prediction, which is pp by symmetry.
   const double ps = 1.0 / (1.0 / pf + 1.0 / pp);
-  const std::vector<double> v = walk::smoothedVariance(s, q);
+  const std::vector<double> v = walk::smoothedVariance(s, {q, 0.0});
   EXPECT_NEAR(v[200], ps, 1e-3 * ps);
 }
 
@@ -55,8 +55,34 @@ TEST(RandomWalk, LearnsTheIntensityOfASimulatedWalk) {
     x.var.push_back(r), y.var.push_back(r);
     x.along.push_back(i), y.along.push_back(i);
   }
-  const double learned = walk::learnIntensity({x, y});
-  EXPECT_NEAR(learned / q, 1.0, 0.25) << learned;
+  const walk::Intensity learned = walk::learnIntensity({x, y});
+  EXPECT_NEAR(learned.value / q, 1.0, 0.25) << learned.value;
+  EXPECT_LT(learned.rate, 1e-7) << learned.rate;  // no bend to speak of
+}
+
+// A correction that only bends (its rate wanders, 1e-7 m^2 per m^3) read through 2 cm of white
+// noise every metre: the rate's intensity is learned within a factor of two, the value's stays
+// far below what a plain walk would need, and the smoother pins the correction down to better
+// than the fixes' noise over ten of them.
+TEST(RandomWalk, LearnsABendingCorrection) {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> n(0.0, 1.0);
+  const double q_rate = 1e-7;
+  walk::Series x;
+  double value = 0.0, rate = 0.0;
+  for (int i = 0; i < 5000; ++i) {
+    rate += std::sqrt(q_rate) * n(rng);
+    value += rate;
+    x.value.push_back(value + 0.02 * n(rng));
+    x.var.push_back(0.02 * 0.02);
+    x.along.push_back(i);
+  }
+  const walk::Intensity learned = walk::learnIntensity({x});
+  EXPECT_GT(learned.rate, 0.5 * q_rate);
+  EXPECT_LT(learned.rate, 2.0 * q_rate);
+  EXPECT_LT(learned.value, 1e-5);  // a plain walk would take about 1e-4
+  const std::vector<double> v = walk::smoothedVariance(x, learned);
+  EXPECT_LT(std::sqrt(v[2500]), 0.02 / std::sqrt(10.0));
 }
 
 Trajectory straight(int n, double step) {

@@ -1,13 +1,15 @@
 #pragma once
 // How far each pose of the result may lie from the truth: a 1-sigma per pose, horizontal (per
 // axis) and vertical, from what the run knows. The correction the result applies to the rigidly
-// aligned SLAM is taken as a random walk along the path, observed by the fixes the result rests
-// on with their own std-devs; its walk's intensity is learned from those fixes by maximum
-// likelihood, and a smoother's variance says how well the fixes pin the correction down at each
-// pose (less between sparse fixes, least where they are dense, growing beyond the last one).
-// What the fixes agree on but the truth may not (a multipath episode the result followed) shows
-// in the local mean of the fixes' residuals from the result, which is added. The weights of the
-// two are calibrated against the truth of real and simulated drives (doc/ACCURACY.md).
+// aligned SLAM is taken as a walk along the path (its value and its rate wander: the SLAM's
+// drift jitters and bends), observed by the fixes the result rests on with their own std-devs.
+// The walk's intensities are learned from those fixes by maximum likelihood, and a smoother's
+// variance says how well the fixes pin the correction down at each pose: least where they are
+// dense, more between sparse ones, growing beyond the last. Added to it: the local mean of the
+// fixes' residuals from the result (what the fixes agree on but the truth may not, as a multipath
+// episode the result followed), what the sheet left of the fused trajectory, and the speed times
+// an estimated clock offset's sigma. The weights
+// are calibrated against the truth of real and simulated drives (doc/ACCURACY.md).
 
 #include <cstddef>
 #include <vector>
@@ -40,15 +42,30 @@ struct PoseSigmas {
   double p95_h = 0.0;
   double median_v = 0.0;
   SigmaStretch worst;
-  /// The correction's random walk as learned from the fixes, m^2 per m of path.
+  /// The correction's walk as learned from the fixes: of its value, m^2 per m of path, and of
+  /// its rate, m^2 per m^3 (random_walk.h).
   double walk_h = 0.0;
   double walk_v = 0.0;
+  double walk_rate_h = 0.0;
+  double walk_rate_v = 0.0;
   std::size_t fixes = 0;  ///< fixes it rests on
+};
+
+/// What else the run knows of the result.
+struct SigmaContext {
+  /// The fused trajectory the sheet was drawn through (the same poses; null: none): what the
+  /// sheet left of it adds.
+  const Trajectory* fused = nullptr;
+  /// The 1-sigma of an estimated clock offset, s (0: none estimated): the speed times it moves
+  /// a pose along the track.
+  double clock_sigma = 0.0;
+  /// The GNSS antenna in the body frame, m: the fixes are the antenna's, the poses the body's.
+  Eigen::Vector3d lever_arm = Eigen::Vector3d::Zero();
 };
 
 /// The sigmas of `result` (ENU, SLAM clock), whose rigid part is `aligned` (the same poses
 /// transformed rigidly), from the fixes it rests on. Without fixes every sigma is infinite.
 PoseSigmas poseSigmas(const Trajectory& result, const Trajectory& aligned,
-                      std::vector<SigmaFix> fixes);
+                      std::vector<SigmaFix> fixes, const SigmaContext& context = {});
 
 }  // namespace flexcloud

@@ -40,6 +40,17 @@ Value at(const Trajectory& poses, const std::vector<Value>& values, double t, st
   return values[k] + u * (values[k + 1] - values[k]);
 }
 
+/// Horizontal speed at every pose (m/s), from its neighbours.
+std::vector<double> speeds(const Trajectory& t) {
+  std::vector<double> v(t.size(), 0.0);
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    const std::size_t a = i == 0 ? 0 : i - 1, b = std::min(i + 1, t.size() - 1);
+    const double dt = t[b].stamp - t[a].stamp;
+    if (dt > 0.0) v[i] = (t[b].position - t[a].position).head<2>().norm() / dt;
+  }
+  return v;
+}
+
 std::vector<Eigen::Vector3d> positions(const Trajectory& t) {
   std::vector<Eigen::Vector3d> p;
   p.reserve(t.size());
@@ -47,26 +58,44 @@ std::vector<Eigen::Vector3d> positions(const Trajectory& t) {
   return p;
 }
 
-/// The walk's smoothed variance carried from the fixes (at path places `fix_along`) to the
-/// poses (at `pose_along`): between two fixes their variances blended plus the walk's bridge,
-/// beyond the first or last fix the walk's growth.
-std::vector<double> toPoses(const std::vector<double>& fix_var,
-                            const std::vector<double>& fix_along,
-                            const std::vector<double>& pose_along, double q) {
-  std::vector<double> out(pose_along.size());
-  std::size_t k = 0;
+/// One axis of the correction's series: the fixes' residuals from the aligned SLAM with their
+/// variances, and the poses as places without an observation, in path order; `pose_entry`
+/// says where each pose went.
+struct AxisSeries {
+  walk::Series series;
+  std::vector<std::size_t> pose_entry;
+};
+
+AxisSeries axisSeries(const std::vector<double>& fix_along, const std::vector<double>& fix_value,
+                      const std::vector<double>& fix_var, const std::vector<double>& pose_along) {
+  AxisSeries out;
+  const double inf = std::numeric_limits<double>::infinity();
+  std::size_t j = 0;
   for (std::size_t i = 0; i < pose_along.size(); ++i) {
-    const double s = pose_along[i];
-    while (k < fix_along.size() && fix_along[k] < s) ++k;
-    if (k == 0) {
-      out[i] = fix_var.front() + q * (fix_along.front() - s);
-    } else if (k == fix_along.size()) {
-      out[i] = fix_var.back() + q * (s - fix_along.back());
-    } else {
-      const double a = s - fix_along[k - 1], b = fix_along[k] - s, l = a + b;
-      out[i] = l > 0.0 ? (fix_var[k - 1] * b + fix_var[k] * a) / l + q * a * b / l : fix_var[k];
+    for (; j < fix_along.size() && fix_along[j] <= pose_along[i]; ++j) {
+      out.series.value.push_back(fix_value[j]);
+      out.series.var.push_back(fix_var[j]);
+      out.series.along.push_back(fix_along[j]);
     }
+    out.pose_entry.push_back(out.series.along.size());
+    out.series.value.push_back(0.0);
+    out.series.var.push_back(inf);
+    out.series.along.push_back(pose_along[i]);
   }
+  return out;
+}
+
+walk::Series fixSeries(const std::vector<double>& along, const std::vector<double>& value,
+                       const std::vector<double>& var) {
+  return {value, var, along};
+}
+
+/// The smoothed variance at the poses.
+std::vector<double> atPoses(const AxisSeries& a, const walk::Intensity& q) {
+  const std::vector<double> v = walk::smoothedVariance(a.series, q);
+  std::vector<double> out;
+  out.reserve(a.pose_entry.size());
+  for (std::size_t e : a.pose_entry) out.push_back(v[e]);
   return out;
 }
 
@@ -122,10 +151,46 @@ void summarise(const Trajectory& poses, PoseSigmas& out) {
   out.worst = worstStretch(poses, out.h);
 }
 
+
+/// The fixes moved from the antenna to the body, turned as the result's pose before them is.
+void toBody(const Trajectory& result, const Eigen::Vector3d& lever, std::vector<SigmaFix>& fixes) {
+  if (lever.isZero()) return;
+  std::size_t k = 0;
+  for (SigmaFix& f : fixes) {
+    while (k + 1 < result.size() && result[k + 1].stamp <= f.t) ++k;
+    f.position -= result[k].orientation * lever;
+  }
+}
+
+/// The fixes on the poses' paths: their place on the aligned SLAM's path and the result's, their
+/// residuals from the aligned SLAM (per axis) and from the result, their variances.
+struct FixTable {
+  std::vector<double> along, result_s, x, y, z, var_h, var_v;
+  std::vector<Eigen::Vector3d> residual;
+};
+
+FixTable fixTable(const std::vector<SigmaFix>& fixes, const Trajectory& result,
+                  const Trajectory& aligned, const std::vector<double>& pose_along) {
+  FixTable t;
+  const std::vector<double> result_s = pathLength(result);
+  const std::vector<Eigen::Vector3d> aligned_p = positions(aligned), result_p = positions(result);
+  std::size_t k1 = 0, k2 = 0, k3 = 0, k4 = 0;
+  for (const SigmaFix& f : fixes) {
+    t.along.push_back(at(aligned, pose_along, f.t, k1));
+    const Eigen::Vector3d r = f.position - at(aligned, aligned_p, f.t, k2);
+    t.x.push_back(r.x()), t.y.push_back(r.y()), t.z.push_back(r.z());
+    t.var_h.push_back(std::pow(std::max(f.std_h, 1e-3), 2));
+    t.var_v.push_back(std::pow(std::max(f.std_v, 1e-3), 2));
+    t.result_s.push_back(at(result, result_s, f.t, k3));
+    t.residual.push_back(f.position - at(result, result_p, f.t, k4));
+  }
+  return t;
+}
+
 }  // namespace
 
 PoseSigmas poseSigmas(const Trajectory& result, const Trajectory& aligned,
-                      std::vector<SigmaFix> fixes) {
+                      std::vector<SigmaFix> fixes, const SigmaContext& context) {
   PoseSigmas out;
   if (result.empty() || result.size() != aligned.size()) return out;
   const double first = result.front().stamp, last = result.back().stamp;
@@ -135,48 +200,45 @@ PoseSigmas poseSigmas(const Trajectory& result, const Trajectory& aligned,
   std::sort(fixes.begin(), fixes.end(),
             [](const SigmaFix& a, const SigmaFix& b) { return a.t < b.t; });
   out.fixes = fixes.size();
-  const double inf = std::numeric_limits<double>::infinity();
   if (fixes.empty()) {
-    out.h.assign(result.size(), inf);
-    out.v.assign(result.size(), inf);
+    out.h.assign(result.size(), std::numeric_limits<double>::infinity());
+    out.v = out.h;
     summarise(result, out);
     return out;
   }
-  // The path of the aligned SLAM (seconds count too) and of the result, at poses and fixes.
+  // The path of the aligned SLAM (seconds count too): where the walk takes its steps.
   std::vector<double> pose_along = pathLength(aligned);
   for (std::size_t i = 0; i < aligned.size(); ++i) {
     pose_along[i] += kTimeMetres * (aligned[i].stamp - first);
   }
-  const std::vector<double> result_s = pathLength(result);
-  const std::vector<Eigen::Vector3d> aligned_p = positions(aligned), result_p = positions(result);
-  walk::Series axis[3];
-  std::vector<double> fix_s;
-  std::vector<Eigen::Vector3d> residual;
-  std::size_t k1 = 0, k2 = 0, k3 = 0, k4 = 0;
-  for (const SigmaFix& f : fixes) {
-    const double along = at(aligned, pose_along, f.t, k1);
-    const Eigen::Vector3d r = f.position - at(aligned, aligned_p, f.t, k2);
-    for (int a = 0; a < 3; ++a) {
-      const double sd = std::max(a < 2 ? f.std_h : f.std_v, 1e-3);
-      axis[a].value.push_back(r[a]);
-      axis[a].var.push_back(sd * sd);
-      axis[a].along.push_back(along);
-    }
-    fix_s.push_back(at(result, result_s, f.t, k3));
-    residual.push_back(f.position - at(result, result_p, f.t, k4));
-  }
-  out.walk_h = walk::learnIntensity({axis[0], axis[1]});
-  out.walk_v = walk::learnIntensity({axis[2]});
-  const std::vector<double> walk_h =
-      toPoses(walk::smoothedVariance(axis[0], out.walk_h), axis[0].along, pose_along, out.walk_h);
-  const std::vector<double> walk_v =
-      toPoses(walk::smoothedVariance(axis[2], out.walk_v), axis[2].along, pose_along, out.walk_v);
-  const LocalResiduals local = localResiduals(result_s, fix_s, residual);
+  toBody(result, context.lever_arm, fixes);
+  const FixTable t = fixTable(fixes, result, aligned, pose_along);
+  const AxisSeries x = axisSeries(t.along, t.x, t.var_h, pose_along);
+  const AxisSeries y = axisSeries(t.along, t.y, t.var_h, pose_along);
+  const AxisSeries z = axisSeries(t.along, t.z, t.var_v, pose_along);
+  // Learned from the fixes alone: the poses' places add nothing to the likelihood.
+  const walk::Intensity qh = walk::learnIntensity({fixSeries(t.along, t.x, t.var_h),
+                                                   fixSeries(t.along, t.y, t.var_h)});
+  const walk::Intensity qv = walk::learnIntensity({fixSeries(t.along, t.z, t.var_v)});
+  out.walk_h = qh.value, out.walk_rate_h = qh.rate;
+  out.walk_v = qv.value, out.walk_rate_v = qv.rate;
+  const std::vector<double> walk_h = atPoses(x, qh), walk_v = atPoses(z, qv);
+  const LocalResiduals local = localResiduals(pathLength(result), t.result_s, t.residual);
+  const std::vector<double> v = speeds(result);
   for (std::size_t i = 0; i < result.size(); ++i) {
+    // The clock's error moves a pose along the track: one of the two horizontal axes.
+    const double clock = v[i] * context.clock_sigma;
+    const Trajectory* fused = context.fused;
+    // What the sheet left of the fused trajectory adds in full.
+    const Eigen::Vector3d sheet = fused != nullptr && fused->size() == result.size()
+                                      ? Eigen::Vector3d(result[i].position - (*fused)[i].position)
+                                      : Eigen::Vector3d::Zero();
     out.h.push_back(std::sqrt(kWalkH * kWalkH * walk_h[i] +
-                              kMeanResidualH * kMeanResidualH * local.mean_h2[i]));
-    out.v.push_back(
-        std::sqrt(kWalkV * kWalkV * walk_v[i] + kScatterV * kScatterV * local.scatter_v2[i]));
+                              kMeanResidualH * kMeanResidualH * local.mean_h2[i] +
+                              sheet.head<2>().squaredNorm() / 2.0 + clock * clock / 2.0));
+    out.v.push_back(std::sqrt(kWalkV * kWalkV * walk_v[i] +
+                              kScatterV * kScatterV * local.scatter_v2[i] +
+                              sheet.z() * sheet.z()));
   }
   summarise(result, out);
   return out;
