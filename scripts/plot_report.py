@@ -3,11 +3,13 @@
 
 usage: plot_report.py DIR   (or -: DIR is read from the first line of standard input)
 
-Left: top view of the corrected trajectory coloured by the correction the rubber sheet applied
-(distance between the rigidly aligned and the corrected pose), the GNSS, the control points and
-the fixes the fusion rejected, down-weighted or found above the std-dev threshold. Right:
-deviation from the GNSS along the drive, after the rigid alignment and after the rubber sheet,
-with a tick where such fixes were. Exit 3 when matplotlib is missing, 1 on bad input.
+Left: top view of the corrected trajectory coloured by how far it may lie from the truth (its
+1-sigma per horizontal axis, trajectory_sigma.txt; without that file, by the correction the
+rubber sheet applied), the GNSS on top of it, the control points and the fixes the fusion
+rejected, down-weighted or found above the std-dev threshold. Right: along the drive, the band
+within which 95 % of the poses lie from the truth (2.45 sigma), and the deviation from the GNSS
+after the rigid alignment and after the rubber sheet, with a tick where such fixes were. Exit 3
+when matplotlib is missing, 1 on bad input.
 """
 import os
 import sys
@@ -96,16 +98,30 @@ def main(folder):
     if len(corrected) == 0 or len(aligned) != len(corrected):
         print("plot_report: the trajectories are missing or differ in length", file=sys.stderr)
         return 1
+    sigma = load(os.path.join(folder, "trajectory_sigma.txt"), usecols=(0, 1, 2))
+    if len(sigma) != len(corrected):
+        sigma = np.zeros((0, 3))
     correction = np.linalg.norm(corrected[:, 1:4] - aligned[:, 1:4], axis=1)
     s = along(corrected[:, 1:4])
 
-    fig, (top, dev) = plt.subplots(1, 2, figsize=(15, 6.5), gridspec_kw={"width_ratios": [1.1, 1]})
-    if len(gnss):
-        top.plot(gnss[:, 1], gnss[:, 2], color="0.7", lw=3, label="GNSS at the poses", zorder=1)
+    fig = plt.figure(figsize=(15, 6.5))
+    grid = fig.add_gridspec(2, 2, width_ratios=[1.1, 1], height_ratios=[1, 1.6], hspace=0.35)
+    top = fig.add_subplot(grid[:, 0])
+    truth = fig.add_subplot(grid[0, 1])
+    dev = fig.add_subplot(grid[1, 1], sharex=truth)
     k = thinned(len(corrected))
-    sc = top.scatter(corrected[k, 1], corrected[k, 2], c=correction[k], s=4, cmap="viridis",
-                     zorder=2)
-    fig.colorbar(sc, ax=top, label="correction by the rubber sheet (m)")
+    if len(sigma):
+        sc = top.scatter(corrected[k, 1], corrected[k, 2], c=sigma[k, 1], s=6, cmap="plasma",
+                         vmin=0.0, vmax=max(float(np.percentile(sigma[:, 1], 99)), 1e-3), zorder=1)
+        fig.colorbar(sc, ax=top, label="how far from the truth: 1-sigma per axis (m)")
+    else:
+        sc = top.scatter(corrected[k, 1], corrected[k, 2], c=correction[k], s=4, cmap="viridis",
+                         zorder=1)
+        fig.colorbar(sc, ax=top, label="correction by the rubber sheet (m)")
+    if len(gnss):
+        # On top of the trajectory, thin: where the two part, both show.
+        top.plot(gnss[:, 1], gnss[:, 2], color="tab:cyan", lw=0.8, label="GNSS at the poses",
+                 zorder=2)
     if len(cps):
         top.scatter(cps[:, 5], cps[:, 6], marker="x", color="k", s=18, lw=0.8,
                     label=f"control points ({len(cps)})", zorder=3)
@@ -120,6 +136,19 @@ def main(folder):
     top.set_title("Corrected trajectory, top view (ENU)")
     top.legend(loc="best", fontsize=8)
 
+    if len(sigma):
+        band = 2.45 * sigma[:, 1]
+        truth.fill_between(s, 0.0, band, color="tab:green", alpha=0.35, lw=0,
+                           label=f"horizontal: 2.45 sigma (median {np.median(band):.3f} m)")
+        truth.plot(s, 1.96 * sigma[:, 2], color="tab:brown", lw=0.8,
+                   label=f"vertical: 1.96 sigma (median {np.median(1.96 * sigma[:, 2]):.3f} m)")
+        truth.legend(loc="upper right", fontsize=8)
+    else:
+        truth.text(0.5, 0.5, "no trajectory_sigma.txt", ha="center", transform=truth.transAxes)
+    truth.set_ylabel("m")
+    truth.set_ylim(bottom=0.0)
+    truth.set_title("How far from the truth: 95 % of the poses within", fontsize=10)
+    truth.grid(alpha=0.3)
     if len(gnss):
         rows = matching_rows(corrected[:, 0], gnss[:, 0])
         keep = rows >= 0
@@ -141,14 +170,14 @@ def main(folder):
         dev.legend(loc="upper right", fontsize=8)
     dev.set_xlabel("distance along the drive (m)")
     dev.set_ylabel("deviation from the GNSS (m)")
-    dev.set_title("Deviation from the GNSS along the drive")
+    dev.set_title("Deviation from the GNSS (the fit, not the truth)", fontsize=10)
     dev.grid(alpha=0.3)
     fig.suptitle(f"flexcloud: {len(corrected)} poses, {len(cps)} control points; fixes: "
                  f"{len(judged['rejected'])} rejected, {len(judged['down-weighted'])} "
                  f"down-weighted, {len(judged['above threshold'])} above the std-dev threshold",
                  fontsize=10)
     # A fixed layout: tight_layout measured every label again (0.1 s of a city run's plot).
-    fig.subplots_adjust(left=0.065, right=0.985, bottom=0.09, top=0.9, wspace=0.12)
+    fig.subplots_adjust(left=0.065, right=0.985, bottom=0.09, top=0.9, wspace=0.15)
     fig.savefig(os.path.join(folder, "report.png"), dpi=110, pil_kwargs={"compress_level": 3})
     return 0
 

@@ -15,12 +15,12 @@
 namespace flexcloud {
 namespace {
 
-const char* const kScenarios[] = {
-    "city_ins_10hz",   "figure_eight",       "loop_closures",      "loop_offset_lever",
-    "loop_rtk",        "loop_unclosed",      "loop_urban",         "loop_urban_nocov",
-    "open_gnss_late",  "open_height_drift",  "open_rtk",           "open_rtk_drifting",
-    "open_urban",      "open_urban_end",     "open_varying_drift", "race_track",
-    "urban_keyframes_1hz"};
+const char* const kScenarios[] = {"city_ins_10hz",     "figure_eight",       "loop_closures",
+                                  "loop_offset_lever", "loop_rtk",           "loop_unclosed",
+                                  "loop_urban",        "loop_urban_nocov",   "open_gnss_late",
+                                  "open_height_drift", "open_rtk",           "open_rtk_drifting",
+                                  "open_urban",        "open_urban_end",     "open_varying_drift",
+                                  "race_track",        "urban_keyframes_1hz"};
 
 /// The truth at instant t (linear between its poses, which share the SLAM's stamps).
 Eigen::Vector3d truthAt(const Trajectory& truth, double t, std::size_t& k) {
@@ -38,8 +38,7 @@ Calibration calibration(const GeoreferenceResult& r, const Trajectory& truth) {
   Calibration c;
   std::size_t k = 0;
   for (std::size_t i = 0; i < r.rubbersheet.size(); ++i) {
-    const Eigen::Vector3d e =
-        r.rubbersheet[i].position - truthAt(truth, r.rubbersheet[i].stamp, k);
+    const Eigen::Vector3d e = r.rubbersheet[i].position - truthAt(truth, r.rubbersheet[i].stamp, k);
     c.within_h += e.head<2>().norm() <= 2.45 * r.sigma.h[i];
     c.within_v += std::abs(e.z()) <= 1.96 * r.sigma.v[i];
     c.rmse += e.head<2>().squaredNorm();
@@ -63,9 +62,10 @@ TEST(SigmaCalibration, SimulatedDrivesAgainstTheirTruth) {
     p.lever_arm_z = sp.lever_arm.z();
     const GeoreferenceResult r = georeference(test::inputOf(d), p);
     const Calibration c = calibration(r, d.truth);
-    std::printf("%s: %.1f %% within 2.45 sigma, %.1f %% within 1.96 sigma vertical, median "
-                "sigma %.3f m, RMSE %.3f m\n",
-                name, 100.0 * c.within_h, 100.0 * c.within_v, r.sigma.median_h, c.rmse);
+    std::printf(
+        "%s: %.1f %% within 2.45 sigma, %.1f %% within 1.96 sigma vertical, median "
+        "sigma %.3f m, RMSE %.3f m\n",
+        name, 100.0 * c.within_h, 100.0 * c.within_v, r.sigma.median_h, c.rmse);
     const std::string n = name;
     EXPECT_GE(c.within_h, 0.85) << n;
     if (n != "city_ins_10hz") EXPECT_GE(c.within_v, 0.80) << n;

@@ -151,7 +151,6 @@ void summarise(const Trajectory& poses, PoseSigmas& out) {
   out.worst = worstStretch(poses, out.h);
 }
 
-
 /// The fixes moved from the antenna to the body, turned as the result's pose before them is.
 void toBody(const Trajectory& result, const Eigen::Vector3d& lever, std::vector<SigmaFix>& fixes) {
   if (lever.isZero()) return;
@@ -217,8 +216,8 @@ PoseSigmas poseSigmas(const Trajectory& result, const Trajectory& aligned,
   const AxisSeries y = axisSeries(t.along, t.y, t.var_h, pose_along);
   const AxisSeries z = axisSeries(t.along, t.z, t.var_v, pose_along);
   // Learned from the fixes alone: the poses' places add nothing to the likelihood.
-  const walk::Intensity qh = walk::learnIntensity({fixSeries(t.along, t.x, t.var_h),
-                                                   fixSeries(t.along, t.y, t.var_h)});
+  const walk::Intensity qh =
+      walk::learnIntensity({fixSeries(t.along, t.x, t.var_h), fixSeries(t.along, t.y, t.var_h)});
   const walk::Intensity qv = walk::learnIntensity({fixSeries(t.along, t.z, t.var_v)});
   out.walk_h = qh.value, out.walk_rate_h = qh.rate;
   out.walk_v = qv.value, out.walk_rate_v = qv.rate;
@@ -237,8 +236,7 @@ PoseSigmas poseSigmas(const Trajectory& result, const Trajectory& aligned,
                               kMeanResidualH * kMeanResidualH * local.mean_h2[i] +
                               sheet.head<2>().squaredNorm() / 2.0 + clock * clock / 2.0));
     out.v.push_back(std::sqrt(kWalkV * kWalkV * walk_v[i] +
-                              kScatterV * kScatterV * local.scatter_v2[i] +
-                              sheet.z() * sheet.z()));
+                              kScatterV * kScatterV * local.scatter_v2[i] + sheet.z() * sheet.z()));
   }
   summarise(result, out);
   return out;

@@ -1,9 +1,9 @@
 #include "uncertainty/random_walk.h"
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
-#include <algorithm>
 #include <functional>
 #include <utility>
 
@@ -69,8 +69,8 @@ double jointLogLikelihood(const std::vector<const std::vector<double>*>& values,
     for (std::size_t a = 0; a < x.size(); ++a) {
       const double innovation = (*values[a])[j] - x[a](0);
       if (!first) {
-        ll -= 0.5 * (innovation * innovation / innovation_var +
-                     std::log(2.0 * M_PI * innovation_var));
+        ll -= 0.5 *
+              (innovation * innovation / innovation_var + std::log(2.0 * M_PI * innovation_var));
       }
       x[a] += gain * innovation;
     }
@@ -148,10 +148,14 @@ Intensity learnIntensity(const std::vector<Series>& axes) {
   Intensity q{1e-5, 1e-8};
   for (int round = 0; round < 2; ++round) {
     q.value = std::pow(10.0, goldenMax(
-                                 [&](double e) { return total({std::pow(10.0, e), q.rate}); },
+                                 [&](double e) {
+                                   return total({std::pow(10.0, e), q.rate});
+                                 },
                                  -10.0, 1.0, 18));
     q.rate = std::pow(10.0, goldenMax(
-                                [&](double e) { return total({q.value, std::pow(10.0, e)}); },
+                                [&](double e) {
+                                  return total({q.value, std::pow(10.0, e)});
+                                },
                                 -14.0, -2.0, 18));
   }
   return q;
