@@ -1,5 +1,6 @@
 """scripts/plot_report.py's table handling: the GNSS rows matched to the trajectory's stamps, and
-the thinning of the trajectory's markers, against plain Python."""
+the thinning of the trajectory's markers, against plain Python; and what the picture draws from
+the pose sigmas."""
 import importlib.util
 import pathlib
 import tempfile
@@ -48,6 +49,55 @@ class PlotReportTables(unittest.TestCase):
         self.assertEqual(judged["down-weighted"].tolist(), [[10.4, 7, 8]])
         self.assertEqual(judged["above threshold"][:, 0].tolist(), [10.6, 10.8])
         self.assertEqual(plot_report.judged_fixes("/nonexistent")["rejected"].shape, (0, 3))
+
+
+def write_tum(path, rows):
+    with open(path, "w") as f:
+        f.write("# TUM\n")
+        for r in rows:
+            f.write(" ".join(f"{v:.6f}" for v in r) + "\n")
+
+
+class PlotReportSigma(unittest.TestCase):
+    def run_plot(self, sigma_rows):
+        """A straight 100-pose drive drawn with `sigma_rows` as trajectory_sigma.txt (None: no
+        file); the figure's axes by title."""
+        with tempfile.TemporaryDirectory() as d:
+            poses = [[0.1 * i, float(i), 0.0, 0.0, 0, 0, 0, 1] for i in range(100)]
+            write_tum(f"{d}/trajectory_aligned.txt", [[*p[:2], 0.5, *p[3:]] for p in poses])
+            write_tum(f"{d}/trajectory_rubbersheet.txt", poses)
+            write_tum(f"{d}/trajectory_gnss.txt", poses[::2])
+            if sigma_rows is not None:
+                with open(f"{d}/trajectory_sigma.txt", "w") as f:
+                    f.write("# stamp sigma_h_m sigma_v_m\n")
+                    for r in sigma_rows:
+                        f.write(f"{r[0]:.6f} {r[1]:.4f} {r[2]:.4f}\n")
+            plot_report.plt.close("all")
+            self.assertEqual(plot_report.main(d), 0)
+            self.assertTrue(pathlib.Path(f"{d}/report.png").stat().st_size > 10000)
+            return {a.get_title(): a for a in plot_report.plt.gcf().axes}
+
+    def test_the_band_is_two_point_four_five_sigma_along_the_drive(self):
+        sigma = [[0.1 * i, 0.01 + 0.001 * i, 0.02] for i in range(100)]
+        axes = self.run_plot(sigma)
+        truth = axes["How far from the truth: 95 % of the poses within"]
+        band = truth.collections[0].get_paths()[0].vertices
+        self.assertAlmostEqual(band[:, 1].max(), 2.45 * 0.109, places=4)
+        vertical = truth.lines[0].get_ydata()
+        self.assertAlmostEqual(float(np.max(vertical)), 1.96 * 0.02, places=4)
+        top = axes["Corrected trajectory, top view (ENU)"]
+        colours = top.collections[0].get_array()
+        self.assertAlmostEqual(float(colours.max()), 0.109, places=4)  # coloured by the sigma
+        # The GNSS line lies above the trajectory's markers.
+        gnss = [line for line in top.lines if line.get_label() == "GNSS at the poses"][0]
+        self.assertGreater(gnss.get_zorder(), top.collections[0].get_zorder())
+
+    def test_without_the_sigmas_the_top_view_shows_the_correction(self):
+        axes = self.run_plot(None)
+        truth = axes["How far from the truth: 95 % of the poses within"]
+        self.assertEqual(len(truth.collections), 0)
+        top = axes["Corrected trajectory, top view (ENU)"]
+        self.assertAlmostEqual(float(top.collections[0].get_array().max()), 0.5, places=4)
 
 
 if __name__ == "__main__":
