@@ -110,6 +110,10 @@ struct GeoreferenceResult {
 GeoreferenceResult georeference(const DriveInput& input, const Params& params,
                                 const CancelToken& cancel = neverCancelled());
 
+/// A line when the least certain stretch of the result may lie further from the truth than
+/// `max_sigma_h` (1-sigma per horizontal axis; 0: never); "" otherwise.
+std::string sigmaWarning(const PoseSigmas& s, double max_sigma_h);
+
 /// A line when the control points placed on the trajectory fall short of those asked for by
 /// more than 10 % (the request capped by the poses with usable GNSS); "" otherwise.
 std::string controlPointShortfall(const ControlPointSelection& cp, std::size_t poses);

@@ -68,6 +68,7 @@ struct Params {
   double margin_min;
   // Reporting.
   double max_uncovered_share;
+  double max_sigma_h;
   // Outputs beside the map.
   bool autoware;
   double tile_size;

@@ -343,6 +343,19 @@ void clockWarnings(const FusionResult& f, std::vector<std::string>& out) {
 
 }  // namespace
 
+std::string sigmaWarning(const PoseSigmas& s, double max_sigma_h) {
+  if (!(max_sigma_h > 0.0) || !(s.worst.sigma_h > max_sigma_h)) return "";
+  std::ostringstream o;
+  o.setf(std::ios::fixed);
+  o.precision(1);
+  o << "uncertain: from " << s.worst.from << " to " << s.worst.to
+    << " s (SLAM clock) the result may lie ";
+  o.precision(3);
+  o << s.worst.sigma_h << " m from the truth (1-sigma per axis; 95 % within 2.45 of it), beyond "
+    << "max_sigma_h (" << max_sigma_h << " m); trajectory_sigma.txt gives every pose's";
+  return o.str();
+}
+
 std::string controlPointShortfall(const ControlPointSelection& cp, std::size_t poses) {
   const std::size_t placed = cp.points.size() - std::min(cp.added, cp.points.size());
   if (10 * placed >= 9 * cp.requested) return "";
@@ -384,6 +397,9 @@ std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Param
       out.push_back(percent(outside) + " of the map points lie beyond the GNSS coverage: they " +
                     "got the rigid transform only, without drift correction");
     }
+  }
+  if (std::string uncertain = sigmaWarning(r.sigma, params.max_sigma_h); !uncertain.empty()) {
+    out.push_back(std::move(uncertain));
   }
   if (std::string cap = controlPointShortfall(r.control_points, r.poses.size()); !cap.empty()) {
     out.push_back(std::move(cap));

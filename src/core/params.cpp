@@ -125,6 +125,9 @@ ParamTable<P> makeTable() {
       realRow<P>("max_uncovered_share", &P::max_uncovered_share, 0.1, 0.0, 1.0, "",
                  "Warn when more than this share of the poses or map points lies outside the "
                  "GNSS coverage"),
+      realRow<P>("max_sigma_h", &P::max_sigma_h, 0.5, 0.0, 1000, "m",
+                 "Warn where the result may lie further than this from the truth (1-sigma per "
+                 "horizontal axis, trajectory_sigma.txt; 0: never)"),
       boolRow<P>("autoware", &P::autoware, false,
                  "Also write the map as Autoware takes it: autoware/ with tiles, their metadata "
                  "and map_projector_info.yaml"),

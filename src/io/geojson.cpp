@@ -1,5 +1,6 @@
 #include "flexcloud/io/geojson.h"
 
+#include <cmath>
 #include <nlohmann/json.hpp>
 
 namespace flexcloud {
@@ -46,6 +47,23 @@ json point(const EnuFrame& frame, const Eigen::Vector3d& enu, json properties) {
           {"geometry", {{"type", "Point"}, {"coordinates", position(frame, enu)}}}};
 }
 
+json finiteOrNull(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+/// How far the corrected trajectory may lie from the truth: per pose (in the order of its
+/// poses; a vertex added where the line is cut at 180 degrees has none), 1-sigma per horizontal
+/// axis and vertical, m, rounded to 0.1 mm; and their median and 95th percentile.
+void withSigmas(const PoseSigmas& s, json& properties) {
+  json h = json::array(), v = json::array();
+  for (std::size_t i = 0; i < s.h.size(); ++i) {
+    h.push_back(finiteOrNull(std::round(s.h[i] * 1e4) / 1e4));
+    v.push_back(finiteOrNull(std::round(s.v[i] * 1e4) / 1e4));
+  }
+  properties["sigma_h_m"] = std::move(h);
+  properties["sigma_v_m"] = std::move(v);
+  properties["sigma_h_median_m"] = finiteOrNull(s.median_h);
+  properties["sigma_h_p95_m"] = finiteOrNull(s.p95_h);
+}
+
 }  // namespace
 
 std::vector<std::vector<Eigen::Vector3d>> cutAtAntimeridian(
@@ -75,6 +93,7 @@ std::string trajectoriesGeojson(const GeoreferenceResult& r) {
   features.push_back(line(frame, "slam_aligned", r.aligned));
   if (r.fusion) features.push_back(line(frame, "fused", r.fusion->poses));
   features.push_back(line(frame, "corrected", r.rubbersheet));
+  withSigmas(r.sigma, features.back()["properties"]);
   const auto& cps = r.control_points.points;
   for (std::size_t i = 0; i < cps.size(); ++i) {
     features.push_back(point(frame, cps[i].target,

@@ -298,6 +298,9 @@ std::string reportJson(const GeoreferenceResult& r, const Params& params, const 
                   {"rubbersheet", stats(r.metrics_rubbersheet)}};
   j["method"] = toString(r.method);
   j["uncertainty"] = sigmaJson(r.sigma);
+  j["uncertainty"]["max_sigma_h_m"] = params.max_sigma_h;
+  j["uncertainty"]["beyond_max_sigma_h"] =
+      params.max_sigma_h > 0.0 && r.sigma.worst.sigma_h > params.max_sigma_h;
   j["clock"] = clockJson(r);
   if (r.fusion) {
     if (r.method == Method::kFusion) j["metrics"]["rubbersheet_vs_fused"] = stats(r.metrics_fused);

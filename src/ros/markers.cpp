@@ -152,4 +152,18 @@ visualization_msgs::MarkerArray deviation(const GeoreferenceResult& r, const std
   return a;
 }
 
+visualization_msgs::MarkerArray sigma(const GeoreferenceResult& r, const std::string& frame,
+                                      const ros::Time& stamp, double red_at) {
+  auto a = withDeleteAll(frame);
+  Marker strip = base(frame, stamp, "sigma", 0, Marker::LINE_STRIP);
+  strip.scale.x = 1.0;
+  const double scale = red_at > 0.0 ? red_at : 0.5;
+  for (std::size_t i = 0; i < r.rubbersheet.size() && i < r.sigma.h.size(); ++i) {
+    strip.points.push_back(point(r.rubbersheet[i].position));
+    strip.colors.push_back(ramp(r.sigma.h[i], scale));
+  }
+  if (!strip.points.empty()) a.markers.push_back(strip);
+  return a;
+}
+
 }  // namespace flexcloud::markers

@@ -20,6 +20,16 @@ flexcloud::Result toResultMsg(const NodeResult* r, bool success, const std::stri
   const GeoreferenceResult& g = r->result;
   m.header.frame_id = r->frames.enu;
   m.warnings = r->warnings;
+  m.sigma_h_median = g.sigma.median_h;
+  m.sigma_h_p95 = g.sigma.p95_h;
+  m.worst_from = g.sigma.worst.from;
+  m.worst_to = g.sigma.worst.to;
+  m.worst_sigma_h = g.sigma.worst.sigma_h;
+  m.method = toString(g.method);
+  if (g.fusion && g.fusion->used + g.fusion->outliers > 0) {
+    m.rejected_share = static_cast<double>(g.fusion->outliers) /
+                       static_cast<double>(g.fusion->used + g.fusion->outliers);
+  }
   m.lever_arm_source = r->lever_arm_source;
   m.fixes_used = static_cast<std::uint32_t>(g.gnss.points.size());
   m.fixes_dropped = static_cast<std::uint32_t>(g.gnss.dropped.total());
@@ -67,6 +77,13 @@ flexcloud::Georeference::Response toResponse(const flexcloud::Result& msg) {
   res.success = msg.success;
   res.message = msg.message;
   if (!msg.success) return res;  // the numbers of an older result would mislead
+  res.sigma_h_median = msg.sigma_h_median;
+  res.sigma_h_p95 = msg.sigma_h_p95;
+  res.worst_from = msg.worst_from;
+  res.worst_to = msg.worst_to;
+  res.worst_sigma_h = msg.worst_sigma_h;
+  res.method = msg.method;
+  res.rejected_share = msg.rejected_share;
   res.warnings = msg.warnings;
   res.fixes_used = msg.fixes_used;
   res.fixes_dropped = msg.fixes_dropped;
@@ -107,6 +124,7 @@ ResultPublisher::ResultPublisher(ros::NodeHandle& pnh) {
   control_points_ = pnh.advertise<MarkerArray>("control_points", 1, true);
   tetrahedra_ = pnh.advertise<MarkerArray>("tetrahedra", 1, true);
   deviation_ = pnh.advertise<MarkerArray>("deviation", 1, true);
+  sigma_ = pnh.advertise<MarkerArray>("sigma", 1, true);
   rejected_ = pnh.advertise<MarkerArray>("rejected_fixes", 1, true);
   result_ = pnh.advertise<flexcloud::Result>("result", 1, true);
 }
@@ -154,6 +172,7 @@ void ResultPublisher::show(const NodeResult& s) {
   control_points_.publish(markers::controlPoints(r, enu, now));
   tetrahedra_.publish(markers::tetrahedra(r, enu, now));
   deviation_.publish(markers::deviation(r, enu, now));
+  sigma_.publish(markers::sigma(r, enu, now, s.params.core.max_sigma_h));
   rejected_.publish(markers::rejectedFixes(r, enu, now));
 }
 
@@ -167,7 +186,7 @@ void ResultPublisher::withdraw(const FrameNames& frames) {
   for (auto* p : {&path_gnss_, &path_aligned_, &path_sheet_}) p->publish(none);
   none.header.frame_id = frames.map;
   path_slam_.publish(none);
-  for (auto* p : {&control_points_, &tetrahedra_, &deviation_, &rejected_}) {
+  for (auto* p : {&control_points_, &tetrahedra_, &deviation_, &sigma_, &rejected_}) {
     p->publish(markers::cleared(frames.enu));
   }
 }

@@ -135,6 +135,15 @@ TEST_F(Live, TopicsInAccurateMapOutTfAndMarkersToo) {
   EXPECT_NEAR(r.lever_arm.x, kLeverArm.x(), 1e-9);  // from TF
   EXPECT_NEAR(r.lever_arm.z, kLeverArm.z(), 1e-9);
   EXPECT_EQ(r.lever_arm_source, "tf base_link -> gnss");
+  // How far from the truth, read first: the simulated RTK drive's sigmas are centimetres.
+  EXPECT_EQ(r.method, "fusion");
+  EXPECT_GT(r.sigma_h_median, 0.001);
+  EXPECT_LT(r.sigma_h_median, 0.1);
+  EXPECT_LE(r.sigma_h_median, r.sigma_h_p95);
+  EXPECT_LE(r.sigma_h_p95, r.worst_sigma_h);
+  EXPECT_LT(r.worst_from, r.worst_to);
+  EXPECT_GE(r.rejected_share, 0.0);
+  EXPECT_LT(r.rejected_share, 0.5);
 
   const auto map = mapAfter(before, 20.0);
   ASSERT_TRUE(map);
@@ -168,6 +177,12 @@ TEST_F(Live, TopicsInAccurateMapOutTfAndMarkersToo) {
       "/flexcloud/deviation", nh, ros::Duration(10.0));
   ASSERT_TRUE(dev);
   EXPECT_EQ(dev->markers.back().points.size(), r.poses);
+  const auto sigma = ros::topic::waitForMessage<visualization_msgs::MarkerArray>(
+      "/flexcloud/sigma", nh, ros::Duration(10.0));
+  ASSERT_TRUE(sigma);
+  EXPECT_EQ(sigma->markers.back().type, visualization_msgs::Marker::LINE_STRIP);
+  EXPECT_EQ(sigma->markers.back().points.size(), r.poses);
+  EXPECT_EQ(sigma->markers.back().colors.size(), r.poses);
   const auto path = ros::topic::waitForMessage<nav_msgs::Path>("/flexcloud/path_rubbersheet", nh,
                                                                ros::Duration(10.0));
   ASSERT_TRUE(path);

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <nlohmann/json.hpp>
 
 #include "flexcloud/io/geojson.h"
@@ -54,6 +55,38 @@ TEST(Geojson, ATrajectoryAcrossLongitude180IsAMultiLineString) {
     EXPECT_DOUBLE_EQ(parts[1].front()[0].get<double>(), -180.0);
     for (const auto& q : parts[0]) EXPECT_GT(q[0].get<double>(), 179.99);
     for (const auto& q : parts[1]) EXPECT_LT(q[0].get<double>(), -179.99);
+  }
+  EXPECT_TRUE(found);
+}
+
+// The corrected trajectory carries its poses' sigmas, in their order, rounded to 0.1 mm; an
+// infinite one (no fix to rest on) is null, as JSON has no infinity.
+TEST(Geojson, TheCorrectedTrajectoryCarriesItsSigmas) {
+  GeoreferenceResult r;
+  r.datum = Datum{48.262, 11.667, 480.0};
+  for (int i = 0; i < 4; ++i) {
+    Pose p;
+    p.stamp = i;
+    p.position = Eigen::Vector3d(10.0 * i, 0.0, 0.0);
+    r.aligned.push_back(p);
+  }
+  r.rubbersheet = r.aligned;
+  r.sigma.h = {0.01234, 0.02, 0.5, std::numeric_limits<double>::infinity()};
+  r.sigma.v = {0.03, 0.03, 0.04, std::numeric_limits<double>::infinity()};
+  r.sigma.median_h = 0.02;
+  r.sigma.p95_h = 0.5;
+  const auto g = nlohmann::json::parse(trajectoriesGeojson(r));
+  bool found = false;
+  for (const auto& f : g["features"]) {
+    if (f["properties"]["name"] != "corrected") continue;
+    found = true;
+    const auto& h = f["properties"]["sigma_h_m"];
+    ASSERT_EQ(h.size(), 4u);
+    EXPECT_NEAR(h[0].get<double>(), 0.0123, 1e-12);
+    EXPECT_NEAR(h[2].get<double>(), 0.5, 1e-12);
+    EXPECT_TRUE(h[3].is_null());
+    EXPECT_NEAR(f["properties"]["sigma_v_m"][2].get<double>(), 0.04, 1e-12);
+    EXPECT_NEAR(f["properties"]["sigma_h_p95_m"].get<double>(), 0.5, 1e-12);
   }
   EXPECT_TRUE(found);
 }

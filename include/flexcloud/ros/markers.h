@@ -29,4 +29,9 @@ visualization_msgs::MarkerArray tetrahedra(const GeoreferenceResult& r, const st
 visualization_msgs::MarkerArray deviation(const GeoreferenceResult& r, const std::string& frame,
                                           const ros::Time& stamp, double red_at = 0.5);
 
+/// The rubber-sheeted trajectory coloured by how far it may lie from the truth: its 1-sigma per
+/// horizontal axis, green 0 m to red at `red_at` metres (max_sigma_h) and beyond.
+visualization_msgs::MarkerArray sigma(const GeoreferenceResult& r, const std::string& frame,
+                                      const ros::Time& stamp, double red_at);
+
 }  // namespace flexcloud::markers

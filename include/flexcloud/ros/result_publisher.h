@@ -55,7 +55,7 @@ class ResultPublisher {
 
  private:
   ros::Publisher map_, origin_, path_gnss_, path_slam_, path_aligned_, path_sheet_, control_points_,
-      tetrahedra_, deviation_, rejected_, result_;
+      tetrahedra_, deviation_, sigma_, rejected_, result_;
   tf2_ros::StaticTransformBroadcaster tf_;
 };
 
