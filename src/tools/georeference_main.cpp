@@ -263,7 +263,7 @@ void printSummary(const GeoreferenceResult& r, const Params& params, const MapIn
   }
   std::snprintf(
       line, sizeof(line),
-      "  from the truth   sigma per axis: median %.3f m, 95th percentile %.3f m (the 95 %% "
+      "  trajectory vs truth  sigma per axis: median %.3f m, 95th percentile %.3f m (the 95 %% "
       "circle: 2.45 sigma); least certain %.3f m at %.1f-%.1f s; %s, rigid "
       "scale %.4f, %s\n",
       r.sigma.median_h, r.sigma.p95_h, r.sigma.worst.sigma_h, r.sigma.worst.from, r.sigma.worst.to,
@@ -272,7 +272,7 @@ void printSummary(const GeoreferenceResult& r, const Params& params, const MapIn
   const auto& a = r.metrics_aligned;
   const auto& b = r.metrics_rubbersheet;
   std::snprintf(line, sizeof(line),
-                "  fit to the GNSS  aligned: MAE %.3f STD %.3f MAX %.3f m | rubber sheet: MAE "
+                "  fit to the GNSS     aligned: MAE %.3f STD %.3f MAX %.3f m | rubber sheet: MAE "
                 "%.3f STD %.3f MAX %.3f m\n",
                 a.mae, a.std, a.max, b.mae, b.std, b.max);
   std::cout << line;

@@ -108,9 +108,9 @@ void expectSigmasCoverTheTruth(const std::string& sim, const std::string& o,
   EXPECT_GE(u["sigma_h_p95_m"].get<double>(), u["sigma_h_median_m"].get<double>());
   EXPECT_GE(u["worst_stretch"]["sigma_h_m"].get<double>(), u["sigma_h_p95_m"].get<double>());
   EXPECT_LT(u["worst_stretch"]["from"].get<double>(), u["worst_stretch"]["to"].get<double>());
-  const auto lead = output.find("from the truth   sigma per axis: median ");
+  const auto lead = output.find("trajectory vs truth  sigma per axis: median ");
   ASSERT_NE(lead, std::string::npos) << output;
-  EXPECT_LT(lead, output.find("fit to the GNSS  aligned: MAE"));
+  EXPECT_LT(lead, output.find("fit to the GNSS     aligned: MAE"));
 }
 
 TEST_F(Tools, BagWithMapGivesEveryOutputAndAccurateMap) {
