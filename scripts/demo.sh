@@ -21,4 +21,4 @@ log "georeferencing it"
   --control-points 200 --out "${out}/result" --quiet
 echo
 echo "The georeferenced map and its datum: ${out}/result/map_georeferenced.pcd, origin.yaml"
-echo "Look at it in rviz: scripts/env.sh roslaunch flexcloud demo.launch"
+echo "Look at it in rviz: scripts/env.sh roslaunch flexcloud demo.launch drive:=${out}/drive"

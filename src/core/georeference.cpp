@@ -635,6 +635,13 @@ GeoreferenceResult georeference(const DriveInput& input, const Params& params,
   sigma_context.clock_sigma = estimatedClockSigma(r);
   sigma_context.lever_arm = r.fusion ? r.fusion->lever_arm : lever;
   r.sigma = poseSigmas(r.rubbersheet, r.aligned, sigmaFixes(r, params), sigma_context);
+  // A control point on the fused trajectory takes the sigma of its pose (3D) as its std-dev.
+  if (r.method == Method::kFusion) {
+    for (auto& cp : r.control_points.points) {
+      const double h = r.sigma.h[cp.pose_index], v = r.sigma.v[cp.pose_index];
+      cp.std_dev = std::sqrt(2.0 * h * h + v * v);
+    }
+  }
   r.seconds.sigma = watch.lap();
   return r;
 }

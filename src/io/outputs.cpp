@@ -106,7 +106,7 @@ json sigmaJson(const PoseSigmas& s) {
 }
 
 /// The clocks: what the trajectories are stamped with, and the offset to the GNSS's.
-json clockJson(const GeoreferenceResult& r) {
+json clockJson(const GeoreferenceResult& r, const Params& params) {
   json j = {{"trajectories", "SLAM clock (the poses' own stamps)"},
             {"offset_s", r.clock_offset},
             {"offset_sigma_s", finiteOrNull(r.clock_offset_sigma)},
@@ -128,6 +128,15 @@ json clockJson(const GeoreferenceResult& r) {
     j["estimated"] = std::isfinite(r.clock_offset_sigma);  // shown beyond its noise: applied
     j["from_speed_profiles_s"] = r.speed_clock->offset;
     j["from_speed_profiles_sigma_s"] = finiteOrNull(r.speed_clock->sigma);
+    if (!j["estimated"].get<bool>()) {
+      j["why_not_estimated"] = r.speed_clock->observable ? "within three of its sigmas of 0"
+                                                         : "the speed varies too little to show it";
+    }
+  } else {
+    j["estimated"] = false;
+  }
+  if (!(params.max_time_offset > 0.0)) {
+    j["why_not_estimated"] = "max_time_offset is 0: no offset asked for (gnss_time_offset applied)";
   }
   return j;
 }
@@ -301,7 +310,7 @@ std::string reportJson(const GeoreferenceResult& r, const Params& params, const 
   j["uncertainty"]["max_sigma_h_m"] = params.max_sigma_h;
   j["uncertainty"]["beyond_max_sigma_h"] =
       params.max_sigma_h > 0.0 && r.sigma.worst.sigma_h > params.max_sigma_h;
-  j["clock"] = clockJson(r);
+  j["clock"] = clockJson(r, params);
   if (r.fusion) {
     if (r.method == Method::kFusion) j["metrics"]["rubbersheet_vs_fused"] = stats(r.metrics_fused);
     j["fusion"] = fusionJson(*r.fusion);

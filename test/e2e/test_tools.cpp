@@ -138,6 +138,15 @@ TEST_F(Tools, BagWithMapGivesEveryOutputAndAccurateMap) {
   EXPECT_LT(j["metrics"]["rubbersheet"]["mae"].get<double>(), 0.1);
   EXPECT_EQ(j["T_enu_map"].size(), 4u);
   expectSigmasCoverTheTruth(sim(), o, r.output, j);
+  // A control point on the fused trajectory takes its pose's sigma (3D) as its std-dev.
+  const auto sig = readRows(o + "/trajectory_sigma.txt");
+  const auto cps = readRows(o + "/control_points.txt");
+  ASSERT_EQ(cps.size(), 200u);
+  for (const auto& cp : cps) {
+    const auto& s = sig[static_cast<std::size_t>(cp[0])];
+    EXPECT_NEAR(cp[8], std::sqrt(2.0 * s[1] * s[1] + s[2] * s[2]), 2e-4);
+    EXPECT_GT(cp[8], 0.0);
+  }
   // What the fusion did with the GNSS: every fix accounted for, the estimates reported.
   const auto& fu = j["fusion"];
   const std::size_t judged = fu["fixes_used"].get<std::size_t>() +
@@ -226,6 +235,26 @@ TEST_F(Tools, TextFilesGiveTheSameGeoreferencing) {
     EXPECT_NEAR(ja["T_enu_map"][i][3].get<double>(), jb["T_enu_map"][i][3].get<double>(), 0.01);
   }
   EXPECT_FALSE(fs::exists(a + "/map_georeferenced.pcd"));  // no map given, none written
+}
+
+// Wherever no clock offset was applied, report.json says why: with the fusion, without it, and
+// with none asked for.
+TEST_F(Tools, TheClockSaysWhyItWasNotEstimated) {
+  for (const std::string set : {"", " --set fusion=false", " --set max_time_offset=0"}) {
+    const std::string o = out("clock" + std::to_string(set.size()));
+    ASSERT_EQ(
+        sh(bin("georeference") + " --bag " + sim() + "/drive.bag -q" + set + " --out " + o).code, 0)
+        << set;
+    const nlohmann::json clock = readJson(o + "/report.json")["clock"];
+    ASSERT_TRUE(clock.contains("estimated")) << set;
+    if (clock["estimated"].get<bool>()) continue;
+    ASSERT_TRUE(clock.contains("why_not_estimated")) << set << clock.dump();
+    EXPECT_FALSE(clock["why_not_estimated"].get<std::string>().empty()) << set;
+    if (set == " --set max_time_offset=0") {
+      EXPECT_EQ(clock["why_not_estimated"],
+                "max_time_offset is 0: no offset asked for (gnss_time_offset applied)");
+    }
+  }
 }
 
 TEST_F(Tools, ConfigFileAndFlagsSetTheParameters) {

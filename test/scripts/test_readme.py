@@ -155,6 +155,8 @@ class Readme(unittest.TestCase):
     def test_01_demo(self):
         out = self.run_typed("scripts/demo.sh", timeout=900)
         self.assertIn("map vs truth", out)
+        # The closing hint plays the drive this run made.
+        self.assertRegex(out, r"roslaunch flexcloud demo\.launch drive:=\S*/out/demo/drive")
         self.assertTrue((ROOT / "out/demo/result/report.json").exists())
 
     def test_02_offline_tool(self):
