@@ -8,35 +8,29 @@
 
 namespace flexcloud::test {
 
-/// The folder of real drive `name`: $FLEXCLOUD_DATA_DIR/NAME, else shared/data/NAME beside the
-/// repository (found from the real path of its CMakeLists.txt, so a workspace of links to the
-/// repository finds it too); empty when neither holds the drive.
-inline std::string findRealDrive(const std::string& name) {
+/// The folder of drive `name` holding files `a` and `b`: $FLEXCLOUD_DATA_DIR/NAME, else
+/// shared/data/NAME beside the repository (found from the real path of its CMakeLists.txt, so a
+/// workspace of links to the repository finds it too); empty when neither holds them.
+inline std::string findDrive(const std::string& name, const char* a, const char* b) {
   namespace fs = std::filesystem;
   std::vector<fs::path> candidates;
   if (const char* env = std::getenv("FLEXCLOUD_DATA_DIR"))
     candidates.emplace_back(fs::path(env) / name);
   candidates.emplace_back(fs::path(FLEXCLOUD_REPO_DIR).parent_path() / "shared" / "data" / name);
   for (const auto& c : candidates) {
-    if (fs::exists(c / "slam_poses_tum.txt") && fs::exists(c / "gnss_local_at_poses.txt")) {
-      return c.string();
-    }
+    if (fs::exists(c / a) && fs::exists(c / b)) return c.string();
   }
   return "";
 }
 
-/// The folder of drive `name` with a ground truth (poses_tum.txt, gt_tum.txt), as findRealDrive
-/// looks for it: e.g. "kitti_lo/07". Empty where it is not found.
+/// The folder of real drive `name` (slam_poses_tum.txt, gnss_local_at_poses.txt).
+inline std::string findRealDrive(const std::string& name) {
+  return findDrive(name, "slam_poses_tum.txt", "gnss_local_at_poses.txt");
+}
+
+/// The folder of drive `name` with a ground truth (poses_tum.txt, gt_tum.txt), e.g. "kitti_lo/07".
 inline std::string findTruthDrive(const std::string& name) {
-  namespace fs = std::filesystem;
-  std::vector<fs::path> candidates;
-  if (const char* env = std::getenv("FLEXCLOUD_DATA_DIR"))
-    candidates.emplace_back(fs::path(env) / name);
-  candidates.emplace_back(fs::path(FLEXCLOUD_REPO_DIR).parent_path() / "shared" / "data" / name);
-  for (const auto& c : candidates) {
-    if (fs::exists(c / "poses_tum.txt") && fs::exists(c / "gt_tum.txt")) return c.string();
-  }
-  return "";
+  return findDrive(name, "poses_tum.txt", "gt_tum.txt");
 }
 
 }  // namespace flexcloud::test

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "flexcloud/input/trajectory.h"
 #include "uncertainty/random_walk.h"
 
 namespace flexcloud {
@@ -49,13 +50,6 @@ std::vector<double> speeds(const Trajectory& t) {
     if (dt > 0.0) v[i] = (t[b].position - t[a].position).head<2>().norm() / dt;
   }
   return v;
-}
-
-std::vector<Eigen::Vector3d> positions(const Trajectory& t) {
-  std::vector<Eigen::Vector3d> p;
-  p.reserve(t.size());
-  for (const Pose& x : t) p.push_back(x.position);
-  return p;
 }
 
 /// One axis of the correction's series: the fixes' residuals from the aligned SLAM with their
@@ -172,7 +166,8 @@ FixTable fixTable(const std::vector<SigmaFix>& fixes, const Trajectory& result,
                   const Trajectory& aligned, const std::vector<double>& pose_along) {
   FixTable t;
   const std::vector<double> result_s = pathLength(result);
-  const std::vector<Eigen::Vector3d> aligned_p = positions(aligned), result_p = positions(result);
+  const std::vector<Eigen::Vector3d> aligned_p = positionsOf(aligned),
+                                     result_p = positionsOf(result);
   std::size_t k1 = 0, k2 = 0, k3 = 0, k4 = 0;
   for (const SigmaFix& f : fixes) {
     t.along.push_back(at(aligned, pose_along, f.t, k1));
