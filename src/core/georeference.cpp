@@ -210,14 +210,42 @@ void matchGnssAt(double offset, const Params& params, GeoreferenceResult& r) {
   }
 }
 
+/// What would make two spans that do not overlap overlap: a stamp unit where one lasts about
+/// 1000^k times the other, else the offset that starts the GNSS with the poses.
+std::string overlapHint(double g0, double g1, double p0, double p1, double given_offset) {
+  const double ratio = (p1 - p0) / std::max(g1 - g0, 1e-12);
+  const char* const units[] = {"ms", "us", "ns"};
+  for (int k = 0; k < 3; ++k) {
+    const double f = std::pow(1000.0, k + 1);
+    if (ratio > f / 3 && ratio < f * 3) {
+      return std::string("; the poses last ") + std::to_string(static_cast<long long>(ratio)) +
+             "x as long as the GNSS: are the poses' stamps in " + units[k] +
+             "? (the tool's --poses-stamp-unit)";
+    }
+    if (ratio < 3 / f && ratio > 1 / (3 * f)) {
+      return std::string("; the GNSS lasts ") + std::to_string(static_cast<long long>(1 / ratio)) +
+             "x as long as the poses: are the GNSS stamps in " + units[k] +
+             "? (the tool's --gnss-stamp-unit)";
+    }
+  }
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(3);
+  s << "; if the two clocks differ by a constant, gnss_time_offset " << given_offset + (p0 - g0)
+    << " (SLAM clock minus GNSS clock, s) starts the GNSS with the poses";
+  return s.str();
+}
+
 /// The GNSS at every pose stamp; throws when no pose has any.
 void matchGnss(const Params& params, GeoreferenceResult& r) {
   matchGnssAt(0.0, params, r);
   if (r.poses_matched == 0) {
-    throw Error("no time overlap: GNSS spans " +
-                span(r.gnss.points.front().stamp, r.gnss.points.back().stamp) + ", poses span " +
-                span(r.poses.front().stamp, r.poses.back().stamp) +
-                " (GNSS gaps longer than max_gap are not bridged)");
+    const double g0 = r.gnss.points.front().stamp, g1 = r.gnss.points.back().stamp;
+    const double p0 = r.poses.front().stamp, p1 = r.poses.back().stamp;
+    const bool apart = g1 < p0 || p1 < g0;
+    throw Error("no time overlap: GNSS spans " + span(g0, g1) + ", poses span " + span(p0, p1) +
+                (apart ? overlapHint(g0, g1, p0, p1, params.gnss_time_offset)
+                       : " (GNSS gaps longer than max_gap are not bridged)"));
   }
 }
 

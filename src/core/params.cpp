@@ -59,7 +59,7 @@ ParamTable<P> makeTable() {
       realRow<P>("default_std_dev", &P::default_std_dev, 0.0, 0.0, 1000, "m",
                  "Std-dev given to fixes whose covariance is unknown; 0: the fusion estimates it "
                  "(with fusion false such fixes are dropped)"),
-      realRow<P>("gnss_time_offset", &P::gnss_time_offset, 0.0, -86400, 86400, "s",
+      realRow<P>("gnss_time_offset", &P::gnss_time_offset, 0.0, -1e10, 1e10, "s",
                  "Added to every GNSS stamp before matching (SLAM clock minus GNSS clock)"),
       realRow<P>("max_gnss_speed", &P::max_gnss_speed, 150.0, 0.1, 10000, "m/s",
                  "A step between fixes faster than this is a jump; the fixes that jumped away "

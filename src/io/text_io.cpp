@@ -23,8 +23,56 @@ struct Table {
   throw Error(name + ":" + std::to_string(line) + ": " + what);
 }
 
+/// The tokens of one line: commas, tabs and carriage returns count as spaces.
+std::vector<std::string> tokensOf(std::string line) {
+  for (char& c : line) {
+    if (c == ',' || c == '\t' || c == '\r' || c == ';') c = ' ';
+  }
+  std::istringstream fields(line);
+  std::vector<std::string> tokens;
+  std::string tok;
+  while (fields >> tok) tokens.push_back(tok);
+  return tokens;
+}
+
+bool isNumber(const std::string& tk) {
+  char* end = nullptr;
+  std::strtod(tk.c_str(), &end);
+  return end != tk.c_str() && *end == '\0';
+}
+
+/// The unit of a file's stamps by their size (kAuto): Unix time in s stays below 1e10 until
+/// the year 2286; in ms it is above 1e12, in us above 1e15, in ns above 1e18 (as integers or
+/// written as floats). Stamps counted from 0 read as seconds; give the unit for those.
+StampUnit detectUnit(const std::vector<std::vector<double>>& rows) {
+  double largest = 0.0;
+  for (const auto& r : rows) {
+    if (std::isfinite(r[0])) largest = std::max(largest, std::abs(r[0]));
+  }
+  if (largest > 1e16) return StampUnit::kNanoseconds;
+  if (largest > 1e13) return StampUnit::kMicroseconds;
+  if (largest > 1e10) return StampUnit::kMilliseconds;
+  return StampUnit::kSeconds;
+}
+
+/// A stamp in seconds from its text in `unit`: integers are split into whole seconds and the
+/// rest, so 19-digit nanosecond stamps keep their sub-microsecond part.
+double stampSeconds(const std::string& text, double value, StampUnit unit) {
+  const long long per_second = unit == StampUnit::kNanoseconds    ? 1000000000LL
+                               : unit == StampUnit::kMicroseconds ? 1000000LL
+                               : unit == StampUnit::kMilliseconds ? 1000LL
+                                                                  : 1LL;
+  if (per_second == 1) return value;
+  const bool integer =
+      text.find_first_not_of("+-0123456789") == std::string::npos && std::abs(value) < 9e18;
+  if (!integer) return value / static_cast<double>(per_second);
+  const long long v = std::strtoll(text.c_str(), nullptr, 10);
+  return static_cast<double>(v / per_second) +
+         static_cast<double>(v % per_second) / static_cast<double>(per_second);
+}
+
 /// Splits every data line into numbers; the first column is the stamp, kept as text for the
-/// unit decision.
+/// unit decision. A first line that is not numbers is a header (stamp,lat,lon,...) and skipped.
 Table parseTable(const std::string& text, const std::string& name,
                  const std::vector<std::size_t>& columns, const std::string& layout,
                  StampUnit unit) {
@@ -35,17 +83,16 @@ Table parseTable(const std::string& text, const std::string& name,
   std::istringstream in(text.compare(0, bom.size(), bom) == 0 ? text.substr(bom.size()) : text);
   std::string line;
   std::size_t line_no = 0;
+  bool header_allowed = true;
   while (std::getline(in, line)) {
     ++line_no;
-    for (char& c : line) {
-      if (c == ',' || c == '\t' || c == '\r') c = ' ';
+    const std::vector<std::string> tokens = tokensOf(line);
+    if (tokens.empty() || tokens[0][0] == '#') continue;
+    if (header_allowed && !isNumber(tokens[0])) {
+      header_allowed = false;
+      continue;
     }
-    const auto first = line.find_first_not_of(' ');
-    if (first == std::string::npos || line[first] == '#') continue;
-    std::istringstream fields(line);
-    std::vector<std::string> tokens;
-    std::string tok;
-    while (fields >> tok) tokens.push_back(tok);
+    header_allowed = false;
     if (std::find(columns.begin(), columns.end(), tokens.size()) == columns.end()) {
       std::string counts;
       for (std::size_t c : columns) counts += (counts.empty() ? "" : " or ") + std::to_string(c);
@@ -56,33 +103,16 @@ Table parseTable(const std::string& text, const std::string& name,
     std::vector<double> row;
     row.reserve(tokens.size());
     for (const auto& tk : tokens) {
-      char* end = nullptr;
-      errno = 0;
-      const double v = std::strtod(tk.c_str(), &end);
-      if (end == tk.c_str() || *end != '\0') fail(name, line_no, "'" + tk + "' is not a number");
-      row.push_back(v);
+      if (!isNumber(tk)) fail(name, line_no, "'" + tk + "' is not a number");
+      row.push_back(std::strtod(tk.c_str(), nullptr));
     }
     stamp_text.push_back(tokens[0]);
     t.rows.push_back(std::move(row));
   }
-  bool integers = !stamp_text.empty();
-  bool large = false;
-  for (std::size_t i = 0; i < stamp_text.size(); ++i) {
-    if (stamp_text[i].find_first_of(".eEnN") != std::string::npos) integers = false;
-    if (std::abs(t.rows[i][0]) > 1e12) large = true;
-  }
-  const bool ns =
-      unit == StampUnit::kNanoseconds || (unit == StampUnit::kAuto && integers && large);
+  const StampUnit resolved = unit == StampUnit::kAuto ? detectUnit(t.rows) : unit;
   t.stamps.reserve(t.rows.size());
   for (std::size_t i = 0; i < t.rows.size(); ++i) {
-    if (ns && integers) {
-      // Split whole seconds from the rest so 19-digit stamps keep their sub-microsecond part.
-      const long long v = std::strtoll(stamp_text[i].c_str(), nullptr, 10);
-      t.stamps.push_back(static_cast<double>(v / 1000000000LL) +
-                         static_cast<double>(v % 1000000000LL) * 1e-9);
-    } else {
-      t.stamps.push_back(ns ? t.rows[i][0] * 1e-9 : t.rows[i][0]);
-    }
+    t.stamps.push_back(stampSeconds(stamp_text[i], t.rows[i][0], resolved));
   }
   return t;
 }
@@ -92,8 +122,10 @@ Table parseTable(const std::string& text, const std::string& name,
 StampUnit parseStampUnit(const std::string& text) {
   if (text == "auto") return StampUnit::kAuto;
   if (text == "s") return StampUnit::kSeconds;
+  if (text == "ms") return StampUnit::kMilliseconds;
+  if (text == "us") return StampUnit::kMicroseconds;
   if (text == "ns") return StampUnit::kNanoseconds;
-  throw Error("stamp unit: '" + text + "' is not one of auto, s, ns");
+  throw Error("stamp unit: '" + text + "' is not one of auto, s, ms, us, ns");
 }
 
 std::string readWholeFile(const std::string& path) {

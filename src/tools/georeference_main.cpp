@@ -10,6 +10,7 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <map>
 #include <optional>
@@ -45,9 +46,17 @@ INPUT, one of:
     --odom-topic T        pose topic (default: the bag's only Odometry/PoseStamped/Path one)
   --gnss FILE --poses FILE
                           GNSS "stamp lat lon alt [std_e std_n std_u]" and TUM poses
-                          "stamp x y z qx qy qz qw"; stamps in s or integer ns (detected)
+                          "stamp x y z qx qy qz qw"; separated by spaces, commas,
+                          semicolons or tabs; lines starting with # and a first line that
+                          is not numbers (a header such as stamp,lat,lon,alt) are skipped
     --gnss-local          GNSS file is "stamp x y z [sx sy sz]" in a local ENU frame (m)
-    --stamp-unit U        auto (default), s or ns
+    --gnss-stamp-unit U   auto (default), s, ms, us or ns; auto reads Unix epochs by their
+    --poses-stamp-unit U  size (s below 1e10, ms, us, ns above 1e16) and stamps counted
+                          from 0 as seconds
+    --stamp-unit U        both at once
+                          Clocks that differ by a constant (poses from 0, GNSS in Unix
+                          time): --set gnss_time_offset=S, the SLAM clock minus the GNSS
+                          clock (the error for spans that do not overlap gives S)
 
 options:
   --map FILE.pcd          SLAM map to warp (ascii, binary or binary_compressed; all fields kept)
@@ -82,7 +91,8 @@ struct Options {
   std::string out = "flexcloud_out";
   bool gnss_local = false;
   bool quiet = false;
-  StampUnit unit = StampUnit::kAuto;
+  StampUnit gnss_unit = StampUnit::kAuto;
+  StampUnit poses_unit = StampUnit::kAuto;
   std::vector<std::pair<std::string, std::string>> sets;  // applied after the config file
 };
 
@@ -126,6 +136,35 @@ Datum datumBeside(const std::string& truth) {
   }
 }
 
+/// The unit a stamp-unit flag gives; UsageError naming the flag otherwise.
+StampUnit stampUnit(const std::string& flag, const std::string& text) {
+  try {
+    return parseStampUnit(text);
+  } catch (const Error& e) {
+    throw UsageError(flag + ": " + e.what());
+  }
+}
+
+/// Every file the options name, checked before any work: a missing map is reported before the
+/// bag is read, not after.
+void checkInputFiles(const Options& o) {
+  const std::pair<const char*, const std::string*> files[] = {
+      {"--bag", &o.bag},     {"--gnss", &o.gnss},   {"--poses", &o.poses},  {"--map", &o.map},
+      {"--truth", &o.truth}, {"--to-ll", &o.to_ll}, {"--config", &o.config}};
+  for (const auto& [flag, path] : files) {
+    if (path->empty()) continue;
+    std::error_code ec;
+    const auto status = std::filesystem::status(*path, ec);
+    if (!std::filesystem::exists(status)) {
+      throw Error(std::string(flag) + " " + *path + ": no such file");
+    }
+    if (std::filesystem::is_directory(status)) {
+      throw Error(std::string(flag) + " " + *path + ": is a folder, not a file");
+    }
+    if (!std::ifstream(*path)) throw Error(std::string(flag) + " " + *path + ": cannot be read");
+  }
+}
+
 Options parseOptions(int argc, char** argv) {
   Options o;
   if (argc < 2) throw UsageError("no input given (--bag, or --gnss with --poses)");
@@ -144,7 +183,11 @@ Options parseOptions(int argc, char** argv) {
     } else if (f == "--gnss-local") {
       o.gnss_local = true;
     } else if (f == "--stamp-unit") {
-      o.unit = parseStampUnit(a.text(f));
+      o.gnss_unit = o.poses_unit = stampUnit(f, a.text(f));
+    } else if (f == "--gnss-stamp-unit") {
+      o.gnss_unit = stampUnit(f, a.text(f));
+    } else if (f == "--poses-stamp-unit") {
+      o.poses_unit = stampUnit(f, a.text(f));
     } else if (f == "--map") {
       o.map = a.text(f);
     } else if (f == "--out") {
@@ -181,6 +224,7 @@ Options parseOptions(int argc, char** argv) {
     throw UsageError("give --bag FILE, or both --gnss FILE and --poses FILE");
   }
   if (!o.truth.empty() && o.map.empty()) throw UsageError("--truth needs --map");
+  checkInputFiles(o);
   if (!o.truth.empty() && !o.truth_datum) o.truth_datum = datumBeside(o.truth);
   return o;
 }
@@ -229,11 +273,11 @@ DriveInput loadDrive(const Options& o, const Progress& log, std::string& map_fra
   }
   DriveInput in;
   if (o.gnss_local) {
-    in.local_gnss = readLocalGnssFile(o.gnss, o.unit);
+    in.local_gnss = readLocalGnssFile(o.gnss, o.gnss_unit);
   } else {
-    in.fixes = readGeodeticGnssFile(o.gnss, o.unit);
+    in.fixes = readGeodeticGnssFile(o.gnss, o.gnss_unit);
   }
-  in.poses = readTumFile(o.poses, o.unit);
+  in.poses = readTumFile(o.poses, o.poses_unit);
   return in;
 }
 

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -237,6 +238,71 @@ TEST_F(Tools, TextFilesGiveTheSameGeoreferencing) {
   EXPECT_FALSE(fs::exists(a + "/map_georeferenced.pcd"));  // no map given, none written
 }
 
+/// Rewrites a text table: a header line first, then every row with its first column
+/// (the stamp, s) passed through `stamp`, the columns joined by `sep`.
+void rewriteTable(const std::string& from, const std::string& to, const std::string& header,
+                  const std::function<std::string(double)>& stamp, const std::string& sep) {
+  std::ifstream in(from);
+  std::ofstream o(to);
+  o << header << "\n";
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream fields(line);
+    std::string tok;
+    fields >> tok;
+    o << stamp(std::stod(tok));
+    while (fields >> tok) o << sep << tok;
+    o << "\n";
+  }
+}
+
+/// GNSS as CSV with a header and nanosecond stamps written as floats; poses with a header,
+/// stamped in milliseconds from 0. The errors say what to give, and with it the run is the
+/// run on the plain files.
+TEST_F(Tools, TextFilesAsUsersWriteThem) {
+  const std::string csv = out("gnss_ns.csv"), tum = out("poses_ms.txt");
+  rewriteTable(
+      sim() + "/gnss.txt", csv, "stamp,lat,lon,alt,std_e,std_n,std_u",
+      [](double t) { return std::to_string(t * 1e9); }, ",");
+  double first = NAN;
+  rewriteTable(
+      sim() + "/slam_trajectory.txt", tum, "# poses\ntimestamp x y z qx qy qz qw",
+      [&](double t) {
+        if (std::isnan(first)) first = t;
+        return std::to_string(std::llround((t - first) * 1e3));
+      },
+      " ");
+  const std::string run = bin("georeference") + " -q --gnss " + csv + " --poses " + tum + datum();
+  const Result unit = sh(run + " --out " + out("units"));
+  EXPECT_EQ(unit.code, 1) << unit.output;
+  EXPECT_NE(unit.output.find("are the poses' stamps in ms? (the tool's --poses-stamp-unit)"),
+            std::string::npos)
+      << unit.output;
+  const Result offset = sh(run + " --poses-stamp-unit ms --out " + out("units"));
+  EXPECT_EQ(offset.code, 1) << offset.output;
+  const std::string says = "if the two clocks differ by a constant, gnss_time_offset ";
+  const std::size_t at = offset.output.find(says);
+  ASSERT_NE(at, std::string::npos) << offset.output;
+  const double given = std::stod(offset.output.substr(at + says.size()));
+  EXPECT_NEAR(given, -first, 1.0) << "the GNSS starts about when the poses do";
+  const Result ok =
+      sh(run + " --poses-stamp-unit ms --set gnss_time_offset=" + std::to_string(-first) +
+         " --out " + out("units"));
+  ASSERT_EQ(ok.code, 0) << ok.output;
+  const std::string plain = out("plain_text");
+  ASSERT_EQ(sh(bin("georeference") + " -q --gnss " + sim() + "/gnss.txt --poses " + sim() +
+               "/slam_trajectory.txt --out " + plain + datum())
+                .code,
+            0);
+  const auto a = readJson(out("units") + "/report.json"), b = readJson(plain + "/report.json");
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(a["T_enu_map"][i][3].get<double>(), b["T_enu_map"][i][3].get<double>(), 0.01);
+  }
+  EXPECT_NEAR(a["metrics"]["rubbersheet"]["mae"].get<double>(),
+              b["metrics"]["rubbersheet"]["mae"].get<double>(), 0.01);
+}
+
 // Wherever no clock offset was applied, report.json says why: with the fusion, without it, and
 // with none asked for.
 TEST_F(Tools, TheClockSaysWhyItWasNotEstimated) {
@@ -306,7 +372,11 @@ TEST_F(Tools, BadInputIsAOneLineErrorAndKeepsPreviousOutputs) {
                                      "POINTS 0\nDATA binary\n";
   const std::vector<Case> cases = {
       {"--bag " + sim() + "/drive.bag --map " + out("empty.pcd"), 1, "the map holds no points"},
-      {"--bag /nonexistent.bag", 1, "/nonexistent.bag"},
+      {"--bag /nonexistent.bag", 1, "--bag /nonexistent.bag: no such file"},
+      {"--bag " + sim() + "/drive.bag --map /nonexistent.pcd", 1,
+       "--map /nonexistent.pcd: no such file"},
+      {"--bag " + sim() + " --map " + sim() + "/map.pcd", 1, "is a folder, not a file"},
+      {"--bag " + sim() + "/drive.bag --gnss-stamp-unit min", 2, "--gnss-stamp-unit: stamp unit"},
       {"--bag " + sim() + "/drive.bag --fix-topic /gps", 1, "topic /gps is not in the bag"},
       {"--bag " + sim() + "/drive.bag --fix-topic /odom", 1, "holds nav_msgs/Odometry"},
       {"--bag " + sim() + "/map.pcd", 1, "not a rosbag (version 2.0) file"},
@@ -323,6 +393,10 @@ TEST_F(Tools, BadInputIsAOneLineErrorAndKeepsPreviousOutputs) {
     EXPECT_NE(r.output.find(c.says), std::string::npos) << c.args << "\n" << r.output;
     EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
   }
+  // A missing map is named before the bag is read.
+  const Result early =
+      sh(bin("georeference") + " --out " + o + " --bag " + sim() + "/drive.bag --map /no.pcd");
+  EXPECT_EQ(early.output, "georeference: --map /no.pcd: no such file\n");
   EXPECT_EQ(readJson(o + "/report.json")["previous"], true);
   std::size_t files = 0;
   for (const auto& e : fs::directory_iterator(o)) files += e.is_regular_file() ? 1 : 0;

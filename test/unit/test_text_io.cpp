@@ -28,6 +28,49 @@ TEST(TextIo, SecondsStayAndCommasAreSeparators) {
   EXPECT_DOUBLE_EQ(ns[0].stamp, 1e-6);
 }
 
+TEST(TextIo, AHeaderLineIsSkipped) {
+  const auto g = parseGeodeticGnss("stamp,lat,lon,alt\n10,48.1,11.2,500\n11,48.2,11.3,501\n",
+                                   "g.csv", StampUnit::kAuto);
+  ASSERT_EQ(g.size(), 2u);
+  EXPECT_DOUBLE_EQ(g[0].fix.stamp, 10.0);
+  EXPECT_DOUBLE_EQ(g[1].fix.lat, 48.2);
+  const auto t = parseTum("# TUM poses\ntimestamp tx ty tz qx qy qz qw\n5 1 2 3 0 0 0 1\n", "p",
+                          StampUnit::kAuto);
+  ASSERT_EQ(t.size(), 1u);
+  EXPECT_DOUBLE_EQ(t[0].position.z(), 3.0);
+  // Only the first line may be a header: text after the data is an error with its line.
+  try {
+    parseTum("5 1 2 3 0 0 0 1\nstamp x y z qx qy qz qw\n", "poses.txt", StampUnit::kAuto);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), "poses.txt:2: 'stamp' is not a number");
+  }
+}
+
+TEST(TextIo, StampUnitsAreDetectedBySizeOrGiven) {
+  const std::string rest = " 1 2 3 0 0 0 1\n";
+  const double t0 = 1700000000.25;
+  // Unix epochs in s, ms, us and ns (as integers and as floats) all read as the same second.
+  for (const std::string stamp :
+       {"1700000000.25", "1700000000250", "1700000000250.0", "1700000000250000",
+        "1700000000250000000", "1.70000000025e18", "1700000000250000000.0"}) {
+    const auto t = parseTum(stamp + rest, "p", StampUnit::kAuto);
+    EXPECT_NEAR(t[0].stamp, t0, 1e-6) << stamp;
+  }
+  // Stamps from 0 read as seconds unless the unit is given.
+  EXPECT_DOUBLE_EQ(parseTum("1500" + rest, "p", StampUnit::kAuto)[0].stamp, 1500.0);
+  EXPECT_DOUBLE_EQ(parseTum("1500" + rest, "p", StampUnit::kMilliseconds)[0].stamp, 1.5);
+  EXPECT_DOUBLE_EQ(parseTum("1500" + rest, "p", StampUnit::kMicroseconds)[0].stamp, 0.0015);
+  EXPECT_DOUBLE_EQ(parseTum("1500.5" + rest, "p", StampUnit::kMicroseconds)[0].stamp, 0.0015005);
+  // Integer microseconds at Unix epochs keep what a double holds (0.24 us).
+  const auto us = parseTum("1700000000000001" + rest + "1700000000000003" + rest, "p",
+                           StampUnit::kMicroseconds);
+  EXPECT_NEAR(us[1].stamp - us[0].stamp, 2e-6, 3e-7);
+  EXPECT_EQ(parseStampUnit("us"), StampUnit::kMicroseconds);
+  EXPECT_EQ(parseStampUnit("ms"), StampUnit::kMilliseconds);
+  EXPECT_THROW(parseStampUnit("min"), Error);
+}
+
 TEST(TextIo, AByteOrderMarkIsSkipped) {
   const auto t = parseTum(
       "\xEF\xBB\xBF"

@@ -10,16 +10,18 @@
 namespace flexcloud {
 
 enum class StampUnit {
-  kAuto,  ///< nanoseconds when every stamp is an integer and one exceeds 1e12
+  kAuto,  ///< by the stamps' size: above 1e16 ns, 1e13 us, 1e10 ms, else s (Unix epochs)
   kSeconds,
+  kMilliseconds,
+  kMicroseconds,
   kNanoseconds,
 };
 
-/// Parses "auto" / "s" / "ns"; throws Error otherwise.
+/// Parses "auto" / "s" / "ms" / "us" / "ns"; throws Error otherwise.
 StampUnit parseStampUnit(const std::string& text);
 
-/// TUM file: "stamp x y z qx qy qz qw" per line; '#' comments and blank lines skipped; commas
-/// count as spaces. Non-finite numbers are kept (the pipeline counts and drops them).
+/// TUM file: "stamp x y z qx qy qz qw" per line; '#' comments, blank lines and a first line
+/// that is not numbers (a header) skipped; commas, semicolons and tabs count as spaces. Non-finite numbers are kept (the pipeline counts and drops them).
 /// Throws Error "FILE:LINE: ..." for a missing file, a wrong column count or a non-number.
 Trajectory readTumFile(const std::string& path, StampUnit unit = StampUnit::kAuto);
 
