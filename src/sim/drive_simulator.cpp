@@ -215,7 +215,7 @@ SimDrive simulateDrive(const SimParams& p) {
     const GnssErrorSample e = errors.at(t);
     const Eigen::Vector3d pos = poseAt(motion.arcAt(t)) * p.lever_arm + noise + e.error;
     RawFix f;
-    f.fix.stamp = p.start_stamp + t + p.clock_offset;
+    f.fix.stamp = p.start_stamp + t - p.clock_offset;
     f.has_fix = !inAny(p.no_fix, t) && t >= p.gnss_late_s && t <= duration - p.gnss_early_s;
     const Datum g = enu.toGeodetic(pos);
     f.fix.lat = f.has_fix ? g.lat : 0.0;

@@ -22,7 +22,7 @@ void steadyScenario(const std::string& name, SimParams& sp) {
   if (name == "loop_offset_lever") {
     // A clock offset moves fixes along the track: it shows only where the speed changes.
     sp.stop_duration = 20.0;
-    sp.clock_offset = 0.5;
+    sp.clock_offset = -0.5;
     sp.lever_arm = Eigen::Vector3d(1.2, -0.4, 1.6);
   }
 }
@@ -46,27 +46,27 @@ void varyingDrift(SimParams& sp) {
 
 /// The drives of SLAM failures the fusion does not model (doc/ACCURACY.md), each with the
 /// SLAM's stamps off the GNSS's by its own amount, driven as in a city but for the race track.
-/// clock_offset is the GNSS clock minus the SLAM clock: a SLAM whose stamps lag by 0.47 s has
-/// -0.47.
+/// clock_offset is the SLAM clock minus the GNSS clock (as gnss_time_offset): a SLAM whose
+/// stamps lag by 0.47 s has 0.47.
 void failureScenario(const std::string& name, SimParams& sp) {
   cityMotion(sp);
   if (name == "open_varying_drift") {
     sp.loop = false;
     varyingDrift(sp);
-    sp.clock_offset = 0.25;
+    sp.clock_offset = -0.25;
   } else if (name == "loop_closures") {
     // Three laps of 2 km; the pose graph closes each lap and leaves a snap of 0.5-3 m.
     sp.length = 2000.0;
     sp.laps = 3;
     sp.heading_bias = 0.3;
     sp.slam_errors.closures = true;
-    sp.clock_offset = -0.2;
+    sp.clock_offset = 0.2;
   } else if (name == "open_height_drift") {
     // The height drifts by tens of metres on its own, without any pitch error.
     sp.loop = false;
     sp.slam_errors.grade_error = 0.004;
     sp.slam_errors.grade_walk = 0.004;
-    sp.clock_offset = 0.6;
+    sp.clock_offset = -0.6;
   } else if (name == "race_track") {
     // 60-80 m/s, braking hard into the curves; 10 Hz RTK; the SLAM a scan late; its height
     // drifting as a race car's LiDAR odometry's does.
@@ -78,7 +78,7 @@ void failureScenario(const std::string& name, SimParams& sp) {
     sp.odom_rate = 20.0;
     sp.slam_errors.grade_error = 0.002;
     sp.slam_errors.grade_walk = 0.002;
-    sp.clock_offset = -0.1;
+    sp.clock_offset = 0.1;
   } else if (name == "urban_keyframes_1hz") {
     // A city drive with stops: keyframes every 1-3 m, urban GNSS at 1 Hz without any
     // covariance, the keyframes' stamps half a second late.
@@ -89,7 +89,7 @@ void failureScenario(const std::string& name, SimParams& sp) {
     sp.slam_errors.keyframe_min_m = 1.0;
     sp.slam_errors.keyframe_max_m = 3.0;
     varyingDrift(sp);
-    sp.clock_offset = -0.47;
+    sp.clock_offset = 0.47;
   } else if (name == "city_ins_10hz") {
     // GNSS/INS of reference grade at 10 Hz (5 mm of white noise, 2 cm wandering over 20 s),
     // visual SLAM whose stamps lead by 0.12 s: the clock must come out to a few milliseconds.
@@ -101,7 +101,7 @@ void failureScenario(const std::string& name, SimParams& sp) {
     sp.gnss_errors.correlated_m = 0.02;
     sp.gnss_errors.correlated_tau_s = 20.0;
     varyingDrift(sp);
-    sp.clock_offset = 0.12;
+    sp.clock_offset = -0.12;
   } else if (name == "loop_unclosed") {
     // Ends where it began, odometry without loop closure (0.4 % of drift, as LiDAR odometry
     // has): the two ends lie some 20 m apart in the SLAM's map, the last stretch alongside the

@@ -44,7 +44,8 @@ constexpr const char* kUsage = R"(usage: simulate_drive [options]
   --reported-std H V      std-devs put in the covariance (default: the noise)
   --outage A:B            degraded GNSS from A to B seconds after the start (repeatable)
   --no-fix A:B            NO_FIX messages from A to B seconds (repeatable)
-  --clock-offset S        GNSS clock minus SLAM clock (default 0)
+  --clock-offset S        SLAM clock minus GNSS clock, as gnss_time_offset (default 0):
+                          georeference --set gnss_time_offset=S undoes it
   --heading-bias D        deg per 100 m (default 0.1)   --pitch-bias D (default 0.04)
   --scale-error F         (default 0.002)
   --odom-type T           odometry (default), pose or path

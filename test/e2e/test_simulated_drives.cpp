@@ -126,12 +126,12 @@ TEST(SimulatedDrive, OutagesNoFixStopsAndClockOffsetAreHandled) {
   sp.outages = {{60.0, 90.0}};
   sp.no_fix = {{200.0, 215.0}};
   sp.stop_duration = 60.0;
-  sp.clock_offset = 0.3;
+  sp.clock_offset = -0.3;  // the GNSS stamps 0.3 s ahead of the SLAM's
   const sim::SimDrive d = sim::simulateDrive(sp);
   const DriveInput in = test::inputOf(d);
   Params p;
   p.fusion = false;  // the published method's control points, from the GNSS at the poses
-  p.gnss_time_offset = -0.3;
+  p.gnss_time_offset = sp.clock_offset;  // one convention: SLAM clock minus GNSS clock
   const GeoreferenceResult r = georeference(in, p);
   EXPECT_EQ(r.gnss.dropped.no_fix, 76u);  // 15 s at 5 Hz, both ends included
   for (const auto& cp : r.control_points.points) {
@@ -174,13 +174,13 @@ TEST(SimulatedDrive, OutagesNoFixStopsAndClockOffsetAreHandled) {
   simple.fusion = false;
   const GeoreferenceResult s = georeference(in, simple);
   ASSERT_TRUE(s.speed_clock && s.speed_clock->observable);
-  EXPECT_NEAR(s.clock_offset, -0.3, 0.01);
+  EXPECT_NEAR(s.clock_offset, sp.clock_offset, 0.01);
   const ErrorStats from_speed = truthError(s);
   EXPECT_LT(from_speed.rmse - good.rmse, 0.02);  // 0.087 against 0.071 m
   // The fusion estimates the offset itself (the stop shows it) and bridges the outage.
   const GeoreferenceResult fused = georeference(in, Params{});
   const ErrorStats estimated = truthError(fused);
-  EXPECT_NEAR(fused.fusion->time_offset, -0.3, 0.02);
+  EXPECT_NEAR(fused.fusion->time_offset, sp.clock_offset, 0.02);
   EXPECT_LT(estimated.rmse, 0.6 * good.rmse);
   std::printf(
       "outage/stop/offset drive: trajectory vs truth RMSE %.3f m (max %.3f), %.3f m "

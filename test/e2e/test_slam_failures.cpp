@@ -81,7 +81,7 @@ INSTANTIATE_TEST_SUITE_P(Scenarios, SlamFailures, ::testing::ValuesIn(kRecorded)
 
 /// The clock offset the fusion finds, against the simulator's (SLAM clock minus GNSS clock).
 double clockError(const sim::SimDrive& d, const GeoreferenceResult& r) {
-  return r.clock_offset - (-d.params.clock_offset);
+  return r.clock_offset - d.params.clock_offset;
 }
 
 /// GNSS/INS of reference grade at 10 Hz and visual SLAM stamped 0.12 s early: the clock to

@@ -141,7 +141,7 @@ TEST(Simulator, GnssInsErrorsWanderSlowly) {
   std::vector<double> e;
   for (std::size_t j = 0; j < d.fixes.size(); ++j) {
     // The true antenna at the fix's instant: the poses are at 10 Hz like the fixes.
-    const double t = d.fixes[j].fix.stamp - d.params.clock_offset;
+    const double t = d.fixes[j].fix.stamp + d.params.clock_offset;
     const std::size_t i = static_cast<std::size_t>(std::lround((t - d.truth.front().stamp) * 10.0));
     if (i >= d.truth.size()) break;
     const auto& f = d.fixes[j].fix;

@@ -62,7 +62,8 @@ struct SimParams {
   /// converging, a car park) and its last this long before the SLAM's last (s); NO_FIX between.
   double gnss_late_s = 0.0;
   double gnss_early_s = 0.0;
-  /// GNSS clock minus SLAM clock (s): GNSS stamps are shifted by this.
+  /// SLAM clock minus GNSS clock (s), as gnss_time_offset: the GNSS stamps lag the SLAM's by
+  /// this, and gnss_time_offset = clock_offset undoes it.
   double clock_offset = 0.0;
   /// The errors of urban GNSS beyond the noise above (all off by default).
   GnssErrors gnss_errors;
