@@ -122,6 +122,10 @@ std::string controlPointShortfall(const ControlPointSelection& cp, std::size_t p
 /// frame: most of a map lies near the drive that made it.
 double shareFarFromPoses(const GeoreferenceResult& r, const WarpStats& map, double distance);
 
+/// The share of the poses with a sampled map point within `distance` (m): all of them where the
+/// drive so far made part of the map (a bag still playing), few where the map is in another frame.
+double sharePosesInMap(const GeoreferenceResult& r, const WarpStats& map, double distance);
+
 /// What a user must read beside the result, one line each: a large share of the poses without
 /// GNSS or of the map beyond the GNSS coverage (moved by the rigid transform only; `map` null:
 /// no map), a map that lies mostly far from its poses (in another frame than `map_frame`?),

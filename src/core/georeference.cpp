@@ -402,6 +402,33 @@ double shareFarFromPoses(const GeoreferenceResult& r, const WarpStats& map, doub
   return static_cast<double>(far) / static_cast<double>(map.sample.size());
 }
 
+double sharePosesInMap(const GeoreferenceResult& r, const WarpStats& map, double distance) {
+  if (map.sample.empty() || r.poses.empty()) return 0.0;
+  const PositionGrid grid(map.sample, distance);
+  const auto in = std::count_if(r.poses.begin(), r.poses.end(), [&](const Pose& p) {
+    return grid.anyWithin(p.position, distance);
+  });
+  return static_cast<double>(in) / static_cast<double>(r.poses.size());
+}
+
+/// The warning for a map mostly far from the poses: a drive that made part of it (its poses
+/// all inside the map), or a map in another frame.
+std::string farMapWarning(const GeoreferenceResult& r, const WarpStats& map, double far,
+                          const std::string& map_frame) {
+  constexpr double kFar = 50.0;
+  const auto percent = [](double share) {
+    return std::to_string(std::lround(100.0 * share)) + " %";
+  };
+  if (sharePosesInMap(r, map, kFar) > 0.95) {
+    return "the poses cover " + percent(1.0 - far) + " of the map (within 50 m): is the drive " +
+           "complete? (a bag still playing has given part of its poses) The map beyond them " +
+           "has no control point near it";
+  }
+  return percent(far) + " of the map points lie more than 50 m from every pose: is the map in " +
+         "the frame of the poses, '" + map_frame + "'? A map shifted or turned against its " +
+         "poses is warped wrong";
+}
+
 std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Params& params,
                                         const WarpStats* map, const std::string& map_frame) {
   std::vector<std::string> out;
@@ -414,9 +441,7 @@ std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Param
   }
   constexpr double kFar = 50.0;  // m: a LiDAR map holds most of its points nearer its drive
   if (const double far = map ? shareFarFromPoses(r, *map, kFar) : 0.0; far > 0.5) {
-    out.push_back(percent(far) + " of the map points lie more " +
-                  "than 50 m from every pose: is the map in the frame of the poses, '" + map_frame +
-                  "'? A map shifted or turned against its poses is warped wrong");
+    out.push_back(farMapWarning(r, *map, far, map_frame));
   }
   if (map != nullptr && map->points > map->non_finite) {
     const double outside =

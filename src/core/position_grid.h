@@ -14,9 +14,10 @@ namespace flexcloud {
 class PositionGrid {
  public:
   PositionGrid(const Trajectory& poses, double cell) : cell_(cell) {
-    for (std::size_t i = 0; i < poses.size(); ++i) {
-      cells_[cellOf(poses[i].position, cell_)].push_back(poses[i].position);
-    }
+    for (const auto& p : poses) cells_[cellOf(p.position, cell_)].push_back(p.position);
+  }
+  PositionGrid(const std::vector<Eigen::Vector3d>& points, double cell) : cell_(cell) {
+    for (const auto& p : points) cells_[cellOf(p, cell_)].push_back(p);
   }
   /// Whether a position lies within `radius` of p.
   bool anyWithin(const Eigen::Vector3d& p, double radius) const {

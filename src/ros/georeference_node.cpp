@@ -55,7 +55,7 @@ void GeoreferenceNode::start() {
   collector_.setLimit(static_cast<std::size_t>(p.max_messages));
   publisher_ = std::make_unique<ResultPublisher>(pnh_);
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_, nh_);
-  publisher_->report(toResultMsg(nullptr, true, "no result yet"));
+  publisher_->report(toResultMsg(nullptr, false, "no result yet: call ~georeference"));
   reconfigure_ =
       std::make_unique<dynamic_reconfigure::Server<GeoreferenceConfig>>(config_mutex_, pnh_);
   pushConfig(p);
@@ -336,7 +336,7 @@ flexcloud::Result GeoreferenceNode::finish(std::shared_ptr<const NodeResult> res
   return msg;
 }
 
-std::string GeoreferenceNode::leverArmFromTf(NodeParams& params) const {
+std::string GeoreferenceNode::leverArmFromTf(NodeParams& params) {
   if (!params.lever_arm_from_tf) return "parameters (lever_arm_from_tf is false)";
   const std::string body = params.body_frame.empty() ? collector_.bodyFrame() : params.body_frame;
   const std::string antenna = collector_.fixFrame();
@@ -356,7 +356,15 @@ std::string GeoreferenceNode::leverArmFromTf(NodeParams& params) const {
     std::snprintf(arm, sizeof(arm), "(%.3f, %.3f, %.3f) m", params.core.lever_arm_x,
                   params.core.lever_arm_y, params.core.lever_arm_z);
     const std::string why = "no TF from " + body + " to " + antenna + " (" + e.what() + ")";
-    ROS_WARN("%s: %s: the lever_arm parameters apply, %s", name_.c_str(), why.c_str(), arm);
+    const bool unset = params.core.lever_arm_x == 0.0 && params.core.lever_arm_y == 0.0 &&
+                       params.core.lever_arm_z == 0.0;
+    if (unset && tf_told_ != body + " " + antenna) {
+      tf_told_ = body + " " + antenna;
+      ROS_INFO(
+          "%s: no TF from %s to %s: the antenna is taken at the body's origin (publish the "
+          "TF or set lever_arm_x/y/z if it is not)",
+          name_.c_str(), body.c_str(), antenna.c_str());
+    }
     return "parameters " + std::string(arm) + ": " + why;
   }
 }
@@ -542,7 +550,7 @@ std_srvs::Trigger::Response GeoreferenceNode::reset() {
   if (bag_thread_.joinable()) bag_thread_.join();
   const auto [fixes, poses] = collector_.clear();
   publisher_->withdraw(frames);
-  publisher_->report(toResultMsg(nullptr, true, "reset: no result"));
+  publisher_->report(toResultMsg(nullptr, false, "reset: no result yet: call ~georeference"));
   const std::string bag = params().bag;
   if (!bag.empty()) startBagRead();
   res.success = true;
@@ -627,10 +635,10 @@ std::vector<std::string> GeoreferenceNode::clampNotes(const NodeParams& before,
     const double now = row.get(after).number;
     if (now == row.get(before).number || (now != spec.min && now != spec.max)) continue;
     notes.push_back(spec.name + " is " + formatValue(spec, row.get(after)) + ", the " +
-                    (now == spec.min ? "least" : "largest") +
-                    " it can be: dynamic_reconfigure sets a value beyond [" +
+                    (now == spec.min ? "least" : "largest") + " it can be in [" +
                     formatValue(spec, ParamValue{spec.min, "", {}}) + ", " +
-                    formatValue(spec, ParamValue{spec.max, "", {}}) + "] to that bound");
+                    formatValue(spec, ParamValue{spec.max, "", {}}) +
+                    "] (dynamic_reconfigure sets a value asked beyond it to the bound)");
   }
   return notes;
 }

@@ -134,8 +134,8 @@ TEST(BadInput, AMapInAnotherFrameIsNamed) {
     }
     const WarpStats s = warpCloud(cloud, *r.sheet, 0);
     EXPECT_GT(s.sample.size(), 900u);
-    std::printf("map points farther than 50 m from every pose: %.3f\n",
-                shareFarFromPoses(r, s, 50.0));
+    std::printf("map points farther than 50 m from every pose: %.3f, poses in the map %.3f\n",
+                shareFarFromPoses(r, s, 50.0), sharePosesInMap(r, s, 50.0));
     std::string frame_warning;
     for (const auto& w : resultWarnings(r, Params{}, &s, "slam_map")) {
       if (w.find("from every pose") != std::string::npos) frame_warning = w;
@@ -152,6 +152,35 @@ TEST(BadInput, AMapInAnotherFrameIsNamed) {
     return Eigen::Vector3d(-p.y(), p.x(), p.z());
   });
   EXPECT_NE(turned.find("'slam_map'"), std::string::npos) << turned;
+}
+
+/// The georeferencing asked for while the drive is not complete (a bag still playing): the
+/// poses so far lie inside the map and cover part of it, and the warning says so, not that the
+/// map is in another frame.
+TEST(BadInput, APartOfTheDriveIsNamedAsSuch) {
+  const sim::SimDrive d = sim::simulateDrive(small());
+  DriveInput in = inputOf(d);
+  const double end =
+      in.poses.front().stamp + 0.3 * (in.poses.back().stamp - in.poses.front().stamp);
+  in.poses.erase(std::remove_if(in.poses.begin(), in.poses.end(),
+                                [&](const Pose& p) { return p.stamp > end; }),
+                 in.poses.end());
+  const GeoreferenceResult r = georeference(in, atSimDatum(d));
+  pcl::PCLPointCloud2 cloud = sim::slamCloud(d.map);
+  const WarpStats s = warpCloud(cloud, *r.sheet, 0);
+  const double far = shareFarFromPoses(r, s, 50.0);
+  std::printf("a third of the drive: %.3f of the map far, %.3f of the poses in the map\n", far,
+              sharePosesInMap(r, s, 50.0));
+  ASSERT_GT(far, 0.5);
+  std::string said;
+  for (const auto& w : resultWarnings(r, Params{}, &s, "slam_map")) {
+    if (w.find("of the map (within 50 m)") != std::string::npos) said = w;
+    EXPECT_EQ(w.find("frame of the poses"), std::string::npos) << w;
+  }
+  EXPECT_EQ(said, "the poses cover " + std::to_string(std::lround(100.0 * (1.0 - far))) +
+                      " % of the map (within 50 m): is the drive complete? (a bag still playing "
+                      "has given part of its poses) The map beyond them has no control point "
+                      "near it");
 }
 
 TEST(BadInput, PerfectlyFlatTrajectoryAndGnss) {

@@ -1,6 +1,7 @@
 // The nodelet on live topics (live.test): a simulated drive published on fix, odom and map.
 #include <dynamic_reconfigure/client.h>
 #include <nav_msgs/Path.h>
+#include <rosgraph_msgs/Log.h>
 #include <std_srvs/Trigger.h>
 #include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
@@ -8,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <future>
+#include <mutex>
 
 #include "flexcloud/GeoreferenceConfig.h"
 #include "flexcloud/LoadMap.h"
@@ -235,7 +237,10 @@ TEST_F(Live, ReconfigureRecomputesAndRepublishes) {
   EXPECT_EQ(parameterOf(*clamped, "control_points"), "4");
   bool said = false;
   for (const auto& w : clamped->warnings) {
-    said = said || w.find("control_points is 4, the least it can be") != std::string::npos;
+    said = said || w.find(
+                       "control_points is 4, the least it can be in [4, 100000] "
+                       "(dynamic_reconfigure sets a value asked beyond it to the bound)") !=
+                       std::string::npos;
   }
   EXPECT_TRUE(said) << "no warning of the clamped control_points";
   // An invalid change is refused and the values in use stay.
@@ -362,6 +367,8 @@ TEST_F(Live, ResetWithdrawsTheResultAndSaveRefuses) {
   const auto msg = resultWhere(before, [](const Result& m) { return !m.has_result; });
   ASSERT_TRUE(msg);
   EXPECT_TRUE(msg->parameters.empty());
+  EXPECT_FALSE(msg->success);
+  EXPECT_EQ(msg->message, "reset: no result yet: call ~georeference");
   flexcloud::Save save;
   save.request.directory = (fs::temp_directory_path() / "flexcloud_after_reset").string();
   save = callService("/flexcloud/save", save);
@@ -458,8 +465,18 @@ TEST_F(Live, AMostlyRigidResultCarriesAWarningWithTheShare) {
 /// result says so, naming the frames (the node logs it too).
 TEST_F(Live, WithoutTheLeverArmsTfTheParametersApplyAndTheResultSaysSo) {
   reset();
+  ros::NodeHandle nh;
+  std::vector<rosgraph_msgs::Log> told;
+  std::mutex told_mutex;
+  const ros::Subscriber rosout =
+      nh.subscribe<rosgraph_msgs::Log>("/rosout", 1000, [&](const rosgraph_msgs::LogConstPtr& m) {
+        if (m->msg.find("no TF from base_link to antenna_without_tf") == std::string::npos) return;
+        const std::lock_guard<std::mutex> lock(told_mutex);
+        told.push_back(*m);
+      });
   publishDrive(1.0, "antenna_without_tf");
-  const auto r = callWhenComplete();
+  callWhenComplete();
+  const auto r = call();  // a second run: the missing TF is not told again
   ASSERT_TRUE(r.success) << r.message;
   EXPECT_EQ(
       r.lever_arm_source.rfind(
@@ -467,6 +484,13 @@ TEST_F(Live, WithoutTheLeverArmsTfTheParametersApplyAndTheResultSaysSo) {
       0u)
       << r.lever_arm_source;
   EXPECT_NEAR(r.lever_arm.x, 0.0, 1e-9);
+  ros::WallDuration(1.0).sleep();  // the log on its way
+  const std::lock_guard<std::mutex> lock(told_mutex);
+  ASSERT_EQ(told.size(), 1u) << "the missing TF is told once, not on every run";
+  EXPECT_EQ(told[0].level, rosgraph_msgs::Log::INFO);
+  EXPECT_EQ(told[0].msg,
+            "/flexcloud: no TF from base_link to antenna_without_tf: the antenna is taken at the "
+            "body's origin (publish the TF or set lever_arm_x/y/z if it is not)");
 }
 
 }  // namespace

@@ -89,6 +89,16 @@ TEST(Params, ABagThatCannotBeReadReachesTheResultTopic) {
   EXPECT_EQ(after->message, g.message);
 }
 
+/// A node that has not run yet says so on ~result, with success false.
+TEST(Params, BeforeAnyRunTheResultSaysThereIsNone) {
+  const auto first = messageWhere<Result>(
+      "/idle/result", [](const Result&) { return true; }, 30.0);
+  ASSERT_TRUE(first);
+  EXPECT_FALSE(first->success);
+  EXPECT_FALSE(first->has_result);
+  EXPECT_EQ(first->message, "no result yet: call ~georeference");
+}
+
 /// The standalone node ends with exit 1 on a bad parameter (14), naming it.
 TEST(Params, AStandaloneNodeWithABadParameterExitsWith1) {
   const auto r = sh(std::string(FLEXCLOUD_BIN_DIR) +

@@ -84,8 +84,9 @@ class GeoreferenceNode {
   std::string readMapFile(const std::string& file, std::uint64_t* points);
   std::shared_ptr<const NodeResult> run(const Job& job, const CancelToken& cancel);
   /// The lever arm from TF (body frame -> the fixes' frame) into `params`, when asked and there;
-  /// returns where the lever arm came from (logged when TF was asked for and not found).
-  std::string leverArmFromTf(NodeParams& params) const;
+  /// returns where the lever arm came from. A TF asked for and not found is logged once per
+  /// pair of frames, and only where the lever arm parameters are 0 (else they apply as set).
+  std::string leverArmFromTf(NodeParams& params);
   /// "no GNSS fix received yet on TOPIC", with the topics of that type that exist now.
   std::string nothingReceived(const std::string& what, const std::string& topic,
                               const std::string& type) const;
@@ -137,6 +138,8 @@ class GeoreferenceNode {
   sensor_msgs::PointCloud2ConstPtr map_ FLEXCLOUD_GUARDED_BY(mutex_);  ///< map frame
   std::string map_error_ FLEXCLOUD_GUARDED_BY(mutex_);  ///< why the map file could not be read
   bool bag_done_ FLEXCLOUD_GUARDED_BY(mutex_) = true;
+  /// The frames whose missing TF was logged (the worker thread's only).
+  std::string tf_told_;
   bool bag_stop_ FLEXCLOUD_GUARDED_BY(mutex_) = false;
   std::string bag_error_ FLEXCLOUD_GUARDED_BY(mutex_);
 
