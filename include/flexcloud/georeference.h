@@ -76,6 +76,9 @@ struct GeoreferenceResult {
   /// Whose control points made the sheet: the fused trajectory's, or with fusion false the
   /// GNSS at the poses'.
   Method method = Method::kGnss;
+  /// Set where the fusion found the std-dev threshold leaving fewer than a quarter of the
+  /// fixes and weighed every fix by its std-dev instead: what it found (a warning).
+  std::string threshold_lifted;
   /// The clock offset applied to the GNSS: SLAM clock minus GNSS clock, s (gnss_time_offset
   /// and the estimate on top of it: the fusion's, or without the fusion the speed profiles'),
   /// and its 1-sigma (NaN where not estimated).
@@ -121,6 +124,23 @@ std::string controlPointShortfall(const ControlPointSelection& cp, std::size_t p
 /// The share of the map's sampled points farther than `distance` (m) from every pose, in the map
 /// frame: most of a map lies near the drive that made it.
 double shareFarFromPoses(const GeoreferenceResult& r, const WarpStats& map, double distance);
+
+/// " have a horizontal std-dev ... within stddev_threshold T m (their horizontal std-devs: 5th
+/// percentile ..., median ..., 95th percentile ... m; stddev_threshold X keeps 95 % of them)":
+/// the end of an error for a threshold that leaves too few fixes.
+std::string thresholdShortfall(const std::vector<GnssPoint>& gnss, double threshold);
+
+/// Why the result cannot be right, one line each (none: it may be): more than half of the fixes
+/// the fusion judged rejected; a rigid scale more than 5 % from 1 (beyond any SLAM's scale
+/// error: the GNSS of another drive, or a map not in metres); with a map, more than half of it
+/// farther than 50 m from every pose.
+std::vector<std::string> degradedReasons(const GeoreferenceResult& r, const WarpStats* map,
+                                         const std::string& map_frame);
+
+/// Throws Error "the result cannot be right: ..." where degradedReasons() gives any, unless
+/// params.accept_degraded.
+void checkDegraded(const GeoreferenceResult& r, const Params& params, const WarpStats* map,
+                   const std::string& map_frame);
 
 /// The share of the poses with a sampled map point within `distance` (m): all of them where the
 /// drive so far made part of the map (a bag still playing), few where the map is in another frame.

@@ -69,6 +69,7 @@ struct Params {
   // Reporting.
   double max_uncovered_share;
   double max_sigma_h;
+  bool accept_degraded;
   // Outputs beside the map.
   bool autoware;
   double tile_size;

@@ -4,6 +4,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -32,8 +33,14 @@ struct GnssPoint {
   double stamp = 0.0;
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
   Eigen::Vector3d std_dev = Eigen::Vector3d::Zero();
-  /// One number for thresholding: the 3D std-dev, sqrt(se^2 + sn^2 + su^2), in metres.
+  /// The 3D std-dev, sqrt(se^2 + sn^2 + su^2), in metres.
   double stdDev3d() const { return std_dev.norm(); }
+  /// The horizontal std-dev the std-dev threshold is compared with: the larger of the east and
+  /// north ones (m); NaN where either is unknown.
+  double stdDevH() const {
+    return std_dev.head<2>().allFinite() ? std_dev.head<2>().maxCoeff()
+                                         : std::numeric_limits<double>::quiet_NaN();
+  }
 };
 
 /// A 6-DoF pose of the SLAM trajectory: position (m) and orientation of the body in its frame.

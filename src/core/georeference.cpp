@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "flexcloud/input/interpolation.h"
+#include "flexcloud/input/swap_check.h"
 #include "flexcloud/metrics.h"
 #include "position_grid.h"
 #include "sheet/revisits.h"
@@ -37,6 +38,37 @@ std::string span(double a, double b) {
   s << "[" << a << ", " << b << "] s";
   return s.str();
 }
+
+/// x rounded up to two significant digits.
+double roundUp2(double x) {
+  if (!(x > 0.0)) return x;
+  const double unit = std::pow(10.0, std::floor(std::log10(x)) - 1.0);
+  return std::ceil(x / unit - 1e-9) * unit;
+}
+
+}  // namespace
+
+std::string thresholdShortfall(const std::vector<GnssPoint>& gnss, double threshold) {
+  std::vector<double> h;
+  for (const auto& g : gnss) {
+    if (std::isfinite(g.stdDevH())) h.push_back(g.stdDevH());
+  }
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(3);
+  s << " have a horizontal std-dev (the larger of east and north) within stddev_threshold "
+    << threshold << " m";
+  if (h.empty()) return s.str();
+  std::sort(h.begin(), h.end());
+  const auto at = [&](double q) { return h[static_cast<std::size_t>(q * (h.size() - 1) + 0.5)]; };
+  s << " (their horizontal std-devs: 5th percentile " << at(0.05) << " m, median " << at(0.5)
+    << " m, 95th percentile " << at(0.95) << " m; stddev_threshold ";
+  s.precision(std::max(0, 1 - static_cast<int>(std::floor(std::log10(at(0.95))))));
+  s << roundUp2(at(0.95)) << " keeps 95 % of them)";
+  return s.str();
+}
+
+namespace {
 
 /// Weight of each pose by the path length it stands for, so a standstill does not dominate.
 std::vector<double> arcWeights(const std::vector<Eigen::Vector3d>& pts) {
@@ -83,9 +115,13 @@ PositionPairs alignmentPairs(const Trajectory& poses,
     out.dst.push_back(gnss[i]->position);
   }
   if (out.src.size() < 3) {
-    throw Error("alignment: " + std::to_string(out.src.size()) +
-                " poses have GNSS within the std-dev threshold of " +
-                std::to_string(params.stddev_threshold) + " m, at least 3 are needed");
+    std::vector<GnssPoint> at_poses;
+    for (const auto& g : gnss) {
+      if (g) at_poses.push_back(*g);
+    }
+    throw Error("alignment: " + std::to_string(out.src.size()) + " of " +
+                std::to_string(at_poses.size()) + " poses with GNSS" +
+                thresholdShortfall(at_poses, params.stddev_threshold) + ", at least 3 are needed");
   }
   return out;
 }
@@ -104,7 +140,7 @@ Alignment alignTrajectory(const Trajectory& poses,
 Alignment robustAlignment(const Trajectory& poses,
                           const std::vector<std::optional<GnssPoint>>& gnss, const Params& params) {
   const auto [src, dst] = alignmentPairs(poses, gnss, params, [&](std::size_t i) {
-    return gnss[i] && !(gnss[i]->stdDev3d() > params.stddev_threshold);  // NaN passes
+    return gnss[i] && !(gnss[i]->stdDevH() > params.stddev_threshold);  // NaN passes
   });
   std::vector<double> w;
   const Similarity fit = robustRigidFit(src, dst, arcWeights(src), &w);
@@ -411,6 +447,8 @@ double sharePosesInMap(const GeoreferenceResult& r, const WarpStats& map, double
   return static_cast<double>(in) / static_cast<double>(r.poses.size());
 }
 
+namespace {
+
 /// The warning for a map mostly far from the poses: a drive that made part of it (its poses
 /// all inside the map), or a map in another frame.
 std::string farMapWarning(const GeoreferenceResult& r, const WarpStats& map, double far,
@@ -429,6 +467,57 @@ std::string farMapWarning(const GeoreferenceResult& r, const WarpStats& map, dou
          "poses is warped wrong";
 }
 
+/// "N of M fixes rejected" where more than half of the fixes the fusion judged were rejected.
+std::string mostFixesRejected(const GeoreferenceResult& r) {
+  if (!r.fusion) return "";
+  std::size_t judged = 0, rejected = 0;
+  for (const FixOutcome& f : r.fusion->fixes) {
+    judged += f.verdict == FixVerdict::kUsed || f.verdict == FixVerdict::kOutlier ? 1 : 0;
+    rejected += f.verdict == FixVerdict::kOutlier ? 1 : 0;
+  }
+  if (2 * rejected <= judged) return "";
+  return std::to_string(rejected) + " of " + std::to_string(judged) +
+         " fixes rejected: the GNSS and the SLAM disagree on most of the drive";
+}
+
+/// The rigid scale where it lies more than 5 % from 1.
+std::string scaleOff(const GeoreferenceResult& r) {
+  if (!(std::abs(r.scale - 1.0) > 0.05)) return "";
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(3);
+  s << "the GNSS's track is " << r.scale << " times the SLAM's (rigid scale): beyond any SLAM's "
+    << "scale error (are the GNSS of this drive and the poses in metres?)";
+  return s.str();
+}
+
+}  // namespace
+
+std::vector<std::string> degradedReasons(const GeoreferenceResult& r, const WarpStats* map,
+                                         const std::string& map_frame) {
+  std::vector<std::string> out;
+  for (std::string reason : {mostFixesRejected(r), scaleOff(r)}) {
+    if (!reason.empty()) out.push_back(std::move(reason));
+  }
+  constexpr double kFar = 50.0;
+  if (const double far = map ? shareFarFromPoses(r, *map, kFar) : 0.0; far > 0.5) {
+    out.push_back(farMapWarning(r, *map, far, map_frame));
+  }
+  return out;
+}
+
+void checkDegraded(const GeoreferenceResult& r, const Params& params, const WarpStats* map,
+                   const std::string& map_frame) {
+  if (params.accept_degraded) return;
+  const std::vector<std::string> reasons = degradedReasons(r, map, map_frame);
+  if (reasons.empty()) return;
+  std::string all;
+  for (const auto& reason : reasons) all += (all.empty() ? "" : "; ") + reason;
+  throw Error("the result cannot be right: " + all +
+              " (accept_degraded true, or the tool's --accept-degraded, keeps it, marked "
+              "degraded in report.json)");
+}
+
 std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Params& params,
                                         const WarpStats* map, const std::string& map_frame) {
   std::vector<std::string> out;
@@ -438,6 +527,10 @@ std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Param
   if (poses_without > params.max_uncovered_share) {
     out.push_back(percent(poses_without) + " of the poses have no GNSS: they are corrected by " +
                   "the nearest control points only, or by the rigid transform");
+  }
+  if (!r.threshold_lifted.empty()) out.push_back(r.threshold_lifted);
+  for (std::string degraded : {mostFixesRejected(r), scaleOff(r)}) {
+    if (!degraded.empty()) out.push_back("degraded: " + degraded);
   }
   constexpr double kFar = 50.0;  // m: a LiDAR map holds most of its points nearer its drive
   if (const double far = map ? shareFarFromPoses(r, *map, kFar) : 0.0; far > 0.5) {
@@ -540,7 +633,7 @@ std::vector<GnssPoint> controlPointFixes(const Params& params, const Georeferenc
   for (const GnssPoint& g : r.gnss.points) {
     const bool excluded = std::any_of(params.excluded_ranges.begin(), params.excluded_ranges.end(),
                                       [&](const TimeRange& t) { return t.contains(g.stamp); });
-    if (!excluded && !(g.stdDev3d() > params.stddev_threshold)) out.push_back(g);
+    if (!excluded && !(g.stdDevH() > params.stddev_threshold)) out.push_back(g);
   }
   return out;
 }
@@ -642,19 +735,50 @@ void sheetFromFusion(const Params& params, const CancelToken& cancel, Georeferen
   r.control_points.added = s.added;
 }
 
+/// The parameters the run goes on with: with the fusion, a std-dev threshold that leaves fewer
+/// than a quarter of the fixes with a known std-dev is lifted (the fusion weighs every fix by
+/// its std-dev: ordinary 1-3 m GNSS works with the defaults), and the result says so.
+Params thresholdInUse(const Params& params, GeoreferenceResult& r) {
+  if (!params.fusion) return params;
+  std::vector<double> h;
+  std::size_t within = 0;
+  for (const auto& g : r.gnss.points) {
+    if (!std::isfinite(g.stdDevH())) continue;
+    h.push_back(g.stdDevH());
+    within += g.stdDevH() <= params.stddev_threshold ? 1 : 0;
+  }
+  if (h.empty() || 4 * within >= h.size()) return params;
+  std::nth_element(h.begin(), h.begin() + h.size() / 2, h.end());
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(3);
+  s << "stddev_threshold " << params.stddev_threshold << " m leaves " << within << " of "
+    << h.size() << " fixes (median horizontal std-dev " << h[h.size() / 2]
+    << " m): the fusion weighs every fix by its std-dev instead";
+  r.threshold_lifted = s.str();
+  Params lifted = params;
+  lifted.stddev_threshold = std::numeric_limits<double>::infinity();
+  return lifted;
+}
+
 }  // namespace
 
-GeoreferenceResult georeference(const DriveInput& input, const Params& params,
+GeoreferenceResult georeference(const DriveInput& input, const Params& given,
                                 const CancelToken& cancel) {
-  if (const std::string bad = params.validate(); !bad.empty()) throw Error("parameters: " + bad);
+  if (const std::string bad = given.validate(); !bad.empty()) throw Error("parameters: " + bad);
   if (!input.fixes.empty() && !input.local_gnss.empty()) {
     throw Error("input: give geodetic fixes or local GNSS points, not both");
   }
   GeoreferenceResult r;
   Stopwatch watch;
-  prepareInput(input, params, r);
+  prepareInput(input, given, r);
   r.seconds.gnss = watch.lap();
+  const Params params = thresholdInUse(given, r);
   matchGnss(params, r);
+  if (!input.fixes.empty()) {
+    checkLatLonOrder(input.fixes, r.poses, rigidFitMedian(r.poses, r.gnss_at_pose),
+                     gnssOptions(params), interpolationOptions(params));
+  }
   r.seconds.interpolation = watch.lap();
   if (params.fusion) {
     sheetFromFusion(params, cancel, r, r.seconds, watch);

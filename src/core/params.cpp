@@ -103,7 +103,10 @@ ParamTable<P> makeTable() {
       intRow<P>("control_points", &P::control_points, 200, 4, 100000, "",
                 "Number of control points", live),
       realRow<P>("stddev_threshold", &P::stddev_threshold, 0.1, 0.001, 100, "m",
-                 "Largest GNSS 3D std-dev of a control point", live),
+                 "Largest horizontal GNSS std-dev (the larger of east and north) of a fix the "
+                 "alignment and the control points take; with the fusion, where it leaves fewer "
+                 "than a quarter of the fixes, every fix is weighed by its std-dev instead",
+                 live),
       realRow<P>("refine_fraction", &P::refine_fraction, 0.75, 0.0, 1.0, "",
                  "Share of control points placed by error-driven refinement (0: even spread)",
                  live),
@@ -128,6 +131,11 @@ ParamTable<P> makeTable() {
       realRow<P>("max_sigma_h", &P::max_sigma_h, 0.5, 0.0, 1000, "m",
                  "Warn where the result may lie further than this from the truth (1-sigma per "
                  "horizontal axis, trajectory_sigma.txt; 0: never)"),
+      boolRow<P>("accept_degraded", &P::accept_degraded, false,
+                 "Keep a result that cannot be right (most fixes rejected, a rigid scale 5 % "
+                 "off, most of the map far from every pose), marked degraded in report.json; "
+                 "false: the run fails naming why",
+                 live),
       boolRow<P>("autoware", &P::autoware, false,
                  "Also write the map as Autoware takes it: autoware/ with tiles, their metadata "
                  "and map_projector_info.yaml"),

@@ -317,6 +317,10 @@ std::string reportJson(const GeoreferenceResult& r, const Params& params, const 
   }
   j["beside_points"] = {{"used", r.beside.size()}, {"left_out_folding", r.beside_folding}};
   j["warnings"] = resultWarnings(r, params, map ? &map->warp : nullptr, run.frames.map);
+  const std::vector<std::string> degraded =
+      degradedReasons(r, map ? &map->warp : nullptr, run.frames.map);
+  j["degraded"] = !degraded.empty();  // kept only where accept_degraded is true
+  j["degraded_reasons"] = degraded;
   if (map != nullptr && map->has_truth) {
     j["map_vs_truth"] = {{"aligned", stats(map->truth_aligned)},
                          {"rubbersheet", stats(map->truth_rubbersheet)}};
@@ -476,6 +480,7 @@ ExportSummary writeStaged(Staging& stage, const std::string& dir, const Georefer
   if (params.report_png) plot = run.plot != nullptr ? run.plot : &own.emplace(run.plot_script);
   if (plot != nullptr) plot->draw(stage.folder());
   if (write_map) write_map(stage.path(kMapFile));
+  checkDegraded(r, params, run.map ? &run.map->warp : nullptr, run.frames.map);
   const auto t0 = std::chrono::steady_clock::now();
   writeMapExports(stage, r, params, run, e);
   e.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -410,7 +410,9 @@ std::shared_ptr<const NodeResult> GeoreferenceNode::run(const Job& job, const Ca
   s->frames.map = !params.map_frame.empty()        ? params.map_frame
                   : !collector_.mapFrame().empty() ? collector_.mapFrame()
                                                    : std::string("map");
+  checkDegraded(s->result, params.core, nullptr, s->frames.map);  // before the map's warp
   s->map = warpMap(params, s->result, cancel, s->map_info);
+  checkDegraded(s->result, params.core, s->map ? &s->map_info.warp : nullptr, s->frames.map);
   s->warnings = job.notes;
   const WarpStats* warp = s->map ? &s->map_info.warp : nullptr;
   for (auto& w : resultWarnings(s->result, params.core, warp, s->frames.map)) {

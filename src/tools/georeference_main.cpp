@@ -63,7 +63,10 @@ options:
   --out DIR               output folder (default: flexcloud_out)
   --datum LAT LON ALT     ENU datum (default: the first valid fix)
   --control-points N      number of control points (default {control_points})
-  --stddev-threshold M    largest GNSS std-dev of a control point (default {stddev_threshold})
+  --stddev-threshold M    largest horizontal GNSS std-dev (the larger of east and north) of
+                          a fix the alignment and the control points take (default
+                          {stddev_threshold}); with the fusion, where it leaves fewer than a
+                          quarter of the fixes, every fix is weighed by its std-dev instead
   --config FILE.yaml      parameters, same keys as the ROS node's (config/georeference.yaml;
                           the node's own keys are accepted and not used)
   --set KEY=VALUE         any parameter (repeatable), e.g. --set max_gap=2; every parameter
@@ -74,6 +77,9 @@ options:
     --tile-size M         side of the tiles, whole metres (default {tile_size})
     --projector P         frame of the tiles (default {projector}): local_cartesian (ENU at
                           the datum), local_cartesian_utm or mgrs (reprojected point by point)
+  --accept-degraded       keep a result that cannot be right (most fixes rejected, a rigid
+                          scale 5 % off, most of the map far from every pose), marked
+                          degraded in report.json; without it such a run fails naming why
   --las                   also write DIR/map_georeferenced.las (LAS 1.4, UTM zone of the datum)
   --to-ll FILE            also convert the points in FILE ("x y z" per line, map frame) through
                           the result to WGS84: DIR/points_ll.txt "x y z lat lon alt"
@@ -117,7 +123,8 @@ const std::map<std::string, std::string> kValueShortcuts = {
     {"--threads", "threads"},
     {"--tile-size", "tile_size"},
     {"--projector", "projector"}};
-const std::map<std::string, std::string> kSwitches = {{"--autoware", "autoware"}, {"--las", "las"}};
+const std::map<std::string, std::string> kSwitches = {
+    {"--autoware", "autoware"}, {"--las", "las"}, {"--accept-degraded", "accept_degraded"}};
 
 /// The datum of a truth map from truth.yaml in its folder; throws UsageError when there is none
 /// (a truth in another ENU frame would report metres of error that are not there).
@@ -422,6 +429,7 @@ int run(int argc, char** argv) {
   const GeoreferenceResult r = georeference(drive, params);
   if (!o.to_ll.empty() && !r.datum) throw Error("--to-ll: the GNSS came without a datum");
   checkTruthFrame(o, r);
+  checkDegraded(r, params, nullptr, context.frames.map);  // before the map: it costs nothing
   checkCancel();
 
   const MapWriter write_map =

@@ -227,12 +227,45 @@ TEST(BadInput, MoreControlPointsAskedThanPoses) {
   EXPECT_TRUE(std::isfinite(mapError(d, r).rmse));
 }
 
+/// Every fix reported at 5 m: the fusion (the default) weighs them by their std-dev and says
+/// so; without it, the error names the threshold, the fixes' std-devs and a value that works.
 TEST(BadInput, EveryFixAboveTheThresholdNamesTheThreshold) {
   sim::SimParams sp = small();
   sp.reported_std_h = sp.reported_std_v = 5.0;
   const sim::SimDrive d = sim::simulateDrive(sp);
-  const std::string e = errorOf(inputOf(d), Params{});
-  EXPECT_NE(e.find("std-dev threshold of 0.1"), std::string::npos) << e;
+  const GeoreferenceResult fused = georeference(inputOf(d), atSimDatum(d));
+  EXPECT_EQ(fused.threshold_lifted,
+            "stddev_threshold 0.100 m leaves 0 of " + std::to_string(d.fixes.size()) +
+                " fixes (median horizontal std-dev 5.000 m): the fusion weighs every fix by its "
+                "std-dev instead");
+  const auto said = resultWarnings(fused, Params{}, nullptr, "map");
+  EXPECT_NE(std::find(said.begin(), said.end(), fused.threshold_lifted), said.end());
+  Params simple;
+  simple.fusion = false;
+  const std::string e = errorOf(inputOf(d), simple);
+  EXPECT_NE(e.find(" poses with GNSS have a horizontal std-dev (the larger of east and north) "
+                   "within stddev_threshold 0.100 m (their horizontal std-devs: 5th percentile "
+                   "5.000 m, median 5.000 m, 95th percentile 6.250 m; stddev_threshold 6.3 keeps "
+                   "95 % of them), at least 3 are needed"),
+            std::string::npos)
+      << e;
+  // Between fixes the GNSS at a pose is less certain (up to 1.25x): the value the error gives.
+  simple.stddev_threshold = 6.3;
+  EXPECT_NO_THROW(georeference(inputOf(d), simple));
+}
+
+/// The threshold is compared with the horizontal std-dev: fixes at 5 cm horizontally and 20 cm
+/// vertically (3D 21 cm) pass a threshold of 10 cm.
+TEST(BadInput, TheThresholdIsHorizontal) {
+  sim::SimParams sp = small();
+  sp.reported_std_h = 0.05;
+  sp.reported_std_v = 0.2;
+  const sim::SimDrive d = sim::simulateDrive(sp);
+  Params simple;
+  simple.fusion = false;
+  const GeoreferenceResult r = georeference(inputOf(d), simple);
+  EXPECT_EQ(r.control_points.points.size(), 200u);
+  EXPECT_TRUE(r.threshold_lifted.empty());
 }
 
 TEST(BadInput, NoFixAtAll) {

@@ -303,6 +303,114 @@ TEST_F(Tools, TextFilesAsUsersWriteThem) {
               b["metrics"]["rubbersheet"]["mae"].get<double>(), 0.01);
 }
 
+/// Ordinary GNSS (1 m horizontally, 2 m vertically, as the receiver reports) with the defaults:
+/// the fusion weighs every fix and the map lies within 0.3 m of the truth; without the fusion,
+/// the threshold's error gives the fixes' std-devs and a value that works.
+TEST_F(Tools, OrdinaryGnssWorksWithTheDefaults) {
+  const std::string drive = out("ordinary");
+  ASSERT_EQ(sh(bin("simulate_drive") + " --out " + drive +
+               " --gnss-noise 1.0 2.0 --map-points 50000 --seed 3")
+                .code,
+            0);
+  const std::string run = bin("georeference") + " -q --bag " + drive + "/drive.bag --map " + drive +
+                          "/map.pcd --truth " + drive + "/truth_map.pcd" + datum() +
+                          " --set report_png=false --out " + out("ordinary_out");
+  const Result r = sh(run);
+  ASSERT_EQ(r.code, 0) << r.output;
+  const nlohmann::json report = readJson(out("ordinary_out") + "/report.json");
+  const double rmse = report["map_vs_truth"]["rubbersheet"]["rmse"].get<double>();
+  std::printf("ordinary GNSS, defaults: map RMSE %.3f m against the truth\n", rmse);
+  EXPECT_LT(rmse, 0.3);
+  EXPECT_NE(r.output.find("warning        stddev_threshold 0.100 m leaves 0 of "),
+            std::string::npos)
+      << r.output;
+  const Result simple = sh(run + " --set fusion=false");
+  EXPECT_EQ(simple.code, 1) << simple.output;
+  EXPECT_NE(simple.output.find("median 1.000 m, 95th percentile"), std::string::npos)
+      << simple.output;
+  const std::size_t at = simple.output.find("; stddev_threshold ");
+  ASSERT_NE(at, std::string::npos) << simple.output;
+  const double works = std::stod(simple.output.substr(at + 19));
+  EXPECT_EQ(sh(run + " --set fusion=false --stddev-threshold " + std::to_string(works)).code, 0);
+}
+
+/// Rewrites a text table with each row's columns passed through `change`.
+void rewriteRows(const std::string& from, const std::string& to,
+                 const std::function<void(std::vector<std::string>&)>& change) {
+  std::ifstream in(from);
+  std::ofstream o(to);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream fields(line);
+    std::vector<std::string> row{std::istream_iterator<std::string>(fields), {}};
+    change(row);
+    for (std::size_t i = 0; i < row.size(); ++i) o << (i ? " " : "") << row[i];
+    o << "\n";
+  }
+}
+
+/// Latitude and longitude swapped in a GNSS file: the run fails naming it, and nothing is
+/// written.
+TEST_F(Tools, SwappedLatitudeAndLongitudeAreNamed) {
+  const std::string gnss = out("swapped_gnss.txt"), o = out("swapped");
+  rewriteRows(sim() + "/gnss.txt", gnss,
+              [](std::vector<std::string>& row) { std::swap(row[1], row[2]); });
+  const Result r = sh(bin("georeference") + " -q --gnss " + gnss + " --poses " + sim() +
+                      "/slam_trajectory.txt --out " + o);
+  EXPECT_EQ(r.code, 1) << r.output;
+  EXPECT_EQ(r.output.rfind("georeference: GNSS: latitude and longitude look swapped: the SLAM's "
+                           "track fits the fixes to ",
+                           0),
+            0u)
+      << r.output;
+  EXPECT_NE(r.output.find(" (the first fix reads latitude 11.6"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("; give them as latitude, longitude\n"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(o + "/report.json"));
+}
+
+/// Poses 20 % too large (a SLAM not in metres): the rigid scale shows a result that cannot be
+/// right; the run fails naming it, or with --accept-degraded writes it marked degraded.
+TEST_F(Tools, ADegradedResultFailsUnlessAccepted) {
+  const std::string poses = out("scaled_poses.txt"), o = out("degraded");
+  rewriteRows(sim() + "/slam_trajectory.txt", poses, [](std::vector<std::string>& row) {
+    for (int a = 1; a <= 3; ++a) row[a] = std::to_string(1.2 * std::stod(row[a]));
+  });
+  const std::string run = bin("georeference") + " -q --gnss " + sim() + "/gnss.txt --poses " +
+                          poses + " --map " + sim() + "/map.pcd --set report_png=false --out " + o;
+  const Result refused = sh(run);
+  EXPECT_EQ(refused.code, 1) << refused.output;
+  EXPECT_EQ(refused.output.rfind("georeference: the result cannot be right: the GNSS's track is "
+                                 "0.83",
+                                 0),
+            0u)
+      << refused.output;
+  EXPECT_NE(refused.output.find(" times the SLAM's (rigid scale): beyond any SLAM's scale error "
+                                "(are the GNSS of this drive and the poses in metres?) "
+                                "(accept_degraded true, or the tool's --accept-degraded, keeps "
+                                "it, marked degraded in report.json)\n"),
+            std::string::npos)
+      << refused.output;
+  EXPECT_FALSE(fs::exists(o + "/report.json"));
+  const Result kept = sh(run + " --accept-degraded");
+  ASSERT_EQ(kept.code, 0) << kept.output;
+  EXPECT_NE(kept.output.find("warning        degraded: the GNSS's track is 0.83"),
+            std::string::npos)
+      << kept.output;
+  const nlohmann::json report = readJson(o + "/report.json");
+  EXPECT_TRUE(report["degraded"].get<bool>());
+  ASSERT_GE(report["degraded_reasons"].size(), 1u);
+  EXPECT_EQ(report["degraded_reasons"][0].get<std::string>().rfind("the GNSS's track is 0.83", 0),
+            0u);
+  EXPECT_TRUE(fs::exists(o + "/map_georeferenced.pcd"));
+  // A sound run says it is not degraded.
+  ASSERT_EQ(sh(bin("georeference") + " -q --bag " + sim() + "/drive.bag --set report_png=false " +
+               "--out " + o)
+                .code,
+            0);
+  EXPECT_FALSE(readJson(o + "/report.json")["degraded"].get<bool>());
+}
+
 // Wherever no clock offset was applied, report.json says why: with the fusion, without it, and
 // with none asked for.
 TEST_F(Tools, TheClockSaysWhyItWasNotEstimated) {

@@ -38,8 +38,10 @@ class Live : public ::testing::Test {
   }
   static void TearDownTestSuite() { delete drive_; }
 
-  /// Publishes the map and the first `share` of the fixes (in `fix_frame`) and poses.
-  void publishDrive(double share = 1.0, const std::string& fix_frame = "gnss") {
+  /// Publishes the map and the first `share` of the fixes (in `fix_frame`, with latitude and
+  /// longitude swapped where `swapped`) and poses.
+  void publishDrive(double share = 1.0, const std::string& fix_frame = "gnss",
+                    bool swapped = false) {
     // The lever arm comes from TF: body frame of the odometry -> frame of the fixes.
     geometry_msgs::TransformStamped antenna;
     antenna.header.stamp = ros::Time::now();
@@ -65,7 +67,9 @@ class Live : public ::testing::Test {
     std::size_t k = 0;
     const auto part = [share](std::size_t n) { return static_cast<std::size_t>(share * n); };
     for (std::size_t i = 0; i < part(drive_->fixes.size()); ++i) {
-      fix.publish(ros_conv::toNavSatFix(drive_->fixes[i], fix_frame));
+      sensor_msgs::NavSatFix m = ros_conv::toNavSatFix(drive_->fixes[i], fix_frame);
+      if (swapped) std::swap(m.latitude, m.longitude);
+      fix.publish(m);
       if (++k % 500 == 0) ros::WallDuration(0.05).sleep();  // stay within the queues
     }
     for (std::size_t i = 0; i < part(drive_->slam.size()); ++i) {
@@ -314,11 +318,14 @@ TEST_F(Live, AFailedRecomputeKeepsThePublishedResultAndSaysSo) {
   flexcloud::GeoreferenceConfig config;
   ASSERT_TRUE(client.getCurrentConfiguration(config, ros::Duration(10.0)));
   const double threshold = config.stddev_threshold;
-  config.stddev_threshold = 0.001;  // in range, but no fix is that good: no control point
+  // In range, but no fix is that good: without the fusion (which would weigh them all) the
+  // alignment finds none.
+  config.stddev_threshold = 0.001;
+  config.fusion = false;
   ASSERT_TRUE(client.setConfiguration(config));
   const auto failed = resultWhere(before, [](const Result& m) { return !m.success; });
   ASSERT_TRUE(failed) << "no failure reported on ~result";
-  EXPECT_NE(failed->message.find("std-dev threshold of 0.001"), std::string::npos)
+  EXPECT_NE(failed->message.find("within stddev_threshold 0.001 m"), std::string::npos)
       << failed->message;
   EXPECT_TRUE(failed->has_result);
   EXPECT_EQ(parameterOf(*failed, "stddev_threshold"), "0.1");
@@ -327,6 +334,7 @@ TEST_F(Live, AFailedRecomputeKeepsThePublishedResultAndSaysSo) {
   ASSERT_TRUE(still);
   EXPECT_EQ(still->header.stamp, map->header.stamp);  // not replaced
   config.stddev_threshold = threshold;
+  config.fusion = true;
   ASSERT_TRUE(client.setConfiguration(config));
   EXPECT_TRUE(resultWhere(before, [](const Result& m) { return m.success && m.has_result; }));
 }
@@ -434,13 +442,31 @@ TEST_F(Live, LoadMapReplacesTheMapToWarp) {
   EXPECT_EQ(callWhenComplete().map_points, drive_->map.slam.size());
 }
 
-/// A result mostly outside the GNSS coverage says so (11): half the drive published, the whole
-/// map: the response, ~result and the log carry a warning with the share.
+/// A quarter of the drive published with the whole map (a bag still playing): the call fails
+/// saying how much of the map the poses cover; accepted (accept_degraded), the result is
+/// mostly outside the GNSS coverage and says so (11): the response, ~result and the log carry
+/// a warning with the share.
 TEST_F(Live, AMostlyRigidResultCarriesAWarningWithTheShare) {
   reset();
   publishDrive(0.25);
-  const ros::Time before = ros::Time::now();
   flexcloud::Georeference::Response r;
+  for (int i = 0; i < 40; ++i) {
+    r = call();
+    if (r.message.find("the poses cover") != std::string::npos) break;
+    ros::WallDuration(0.25).sleep();
+  }
+  EXPECT_FALSE(r.success);
+  EXPECT_EQ(r.message.rfind("the result cannot be right: the poses cover ", 0), 0u) << r.message;
+  EXPECT_NE(r.message.find(" % of the map (within 50 m): is the drive complete? (a bag still "
+                           "playing has given part of its poses)"),
+            std::string::npos)
+      << r.message;
+  dynamic_reconfigure::Client<flexcloud::GeoreferenceConfig> client("/flexcloud");
+  flexcloud::GeoreferenceConfig config;
+  ASSERT_TRUE(client.getCurrentConfiguration(config, ros::Duration(10.0)));
+  config.accept_degraded = true;
+  ASSERT_TRUE(client.setConfiguration(config));
+  const ros::Time before = ros::Time::now();
   for (int i = 0; i < 40; ++i) {
     r = call();
     if (r.success && r.map_points == drive_->map.slam.size()) break;
@@ -458,6 +484,28 @@ TEST_F(Live, AMostlyRigidResultCarriesAWarningWithTheShare) {
   const auto msg = resultWhere(before, [](const Result& m) { return m.has_result; });
   ASSERT_TRUE(msg);
   EXPECT_EQ(msg->warnings, r.warnings);
+  reset();  // no result left to recompute when the parameter goes back
+  config.accept_degraded = false;
+  EXPECT_TRUE(client.setConfiguration(config));
+}
+
+/// Fixes with latitude and longitude swapped (a driver that wrote them the other way round):
+/// ~georeference fails naming it, and no result is published.
+TEST_F(Live, SwappedLatitudeAndLongitudeAreNamed) {
+  reset();
+  publishDrive(1.0, "gnss", true);
+  flexcloud::Georeference::Response r;
+  for (int i = 0; i < 40; ++i) {
+    r = call();
+    if (r.message.find("swapped") != std::string::npos) break;
+    ros::WallDuration(0.25).sleep();
+  }
+  EXPECT_FALSE(r.success);
+  EXPECT_EQ(r.message.rfind("GNSS: latitude and longitude look swapped: the SLAM's track fits "
+                            "the fixes to ",
+                            0),
+            0u)
+      << r.message;
   reset();
 }
 

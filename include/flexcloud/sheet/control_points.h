@@ -31,7 +31,7 @@ struct ControlPointSelection {
 /// from the parameter table.
 struct ControlPointOptions {
   int count = 0;                           ///< control points asked for on the trajectory
-  double stddev_threshold = 0.0;           ///< m, the largest GNSS 3D std-dev of one
+  double stddev_threshold = 0.0;           ///< m, the largest horizontal GNSS std-dev of one
   std::vector<TimeRange> excluded_ranges;  ///< pose stamps where none may lie
 };
 

@@ -86,7 +86,7 @@ void Fusion::selectFixes() {
       o.verdict = FixVerdict::kOutsidePoses;
     } else if (excluded(t)) {
       o.verdict = FixVerdict::kExcluded;
-    } else if (known && g.stdDev3d() > options_.stddev_threshold) {
+    } else if (known && g.stdDevH() > options_.stddev_threshold) {
       o.verdict = FixVerdict::kAboveThreshold;
     } else {
       Fix f;

@@ -11,7 +11,7 @@ namespace flexcloud {
 bool isUsableGnss(const std::optional<GnssPoint>& gnss, double pose_stamp,
                   const ControlPointOptions& options) {
   if (!gnss) return false;
-  if (!(gnss->stdDev3d() <= options.stddev_threshold)) return false;
+  if (!(gnss->stdDevH() <= options.stddev_threshold)) return false;
   return std::none_of(options.excluded_ranges.begin(), options.excluded_ranges.end(),
                       [&](const TimeRange& r) { return r.contains(pose_stamp); });
 }
