@@ -8,10 +8,13 @@ import os
 import pathlib
 import subprocess
 import tempfile
+import sys
 import unittest
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 SCRIPT = ROOT / "scripts" / "screenshot.sh"
+sys.path.insert(0, str(ROOT / "scripts"))
+from map_drawn import drawn_share  # noqa: E402  (the script's own measure)
 STARTED = ("Xvfb", "roslaunch", "rosmaster", "rosout", "nodelet", "rviz")
 
 
@@ -42,12 +45,28 @@ class Screenshot(unittest.TestCase):
         before = processes()
         with tempfile.TemporaryDirectory(prefix="flexcloud_screenshot_") as tmp:
             out = pathlib.Path(tmp) / "shots" / "rviz.png"
-            env = dict(os.environ, SCREENSHOT_WAIT="20")
             r = subprocess.run([str(SCRIPT), str(out)], capture_output=True, text=True,
-                               timeout=600, env=env)
+                               timeout=600)
             self.assertEqual(r.returncode, 0, r.stderr[-3000:])
             self.assertEqual(out.read_bytes()[:8], b"\x89PNG\r\n\x1a\n")
-            self.assertGreater(out.stat().st_size, 10000)
+            # The map is in the picture: its coloured points cover percents of the view (the
+            # trajectories alone, a few thousandths).
+            self.assertGreater(drawn_share(out), 0.02)
+            self.assertIn("the map covers", r.stderr)
+        left = {pid: cmd for pid, cmd in processes().items() if pid not in before}
+        self.assertEqual(left, {}, "processes the script left running")
+
+    def test_it_fails_when_rviz_never_draws_the_map(self):
+        before = processes()
+        with tempfile.TemporaryDirectory(prefix="flexcloud_screenshot_") as tmp:
+            out = pathlib.Path(tmp) / "rviz.png"
+            # No map covers the whole view: the wait ends in a failure, not a picture.
+            env = dict(os.environ, SCREENSHOT_MIN_SHARE="0.99", SCREENSHOT_TIMEOUT="45")
+            r = subprocess.run([str(SCRIPT), str(out)], capture_output=True, text=True,
+                               timeout=600, env=env)
+            self.assertEqual(r.returncode, 1, r.stderr[-3000:])
+            self.assertIn("rviz never drew the map: it covers ", r.stderr)
+            self.assertFalse(out.exists())
         left = {pid: cmd for pid, cmd in processes().items() if pid not in before}
         self.assertEqual(left, {}, "processes the script left running")
 
