@@ -467,7 +467,8 @@ std::string farMapWarning(const GeoreferenceResult& r, const WarpStats& map, dou
          "poses is warped wrong";
 }
 
-/// "N of M fixes rejected" where more than half of the fixes the fusion judged were rejected.
+/// "N of M fixes rejected" where more than four in five of the fixes the fusion judged were
+/// rejected (a drive in an urban canyon may lose half of its fixes and still be bridged).
 std::string mostFixesRejected(const GeoreferenceResult& r) {
   if (!r.fusion) return "";
   std::size_t judged = 0, rejected = 0;
@@ -475,7 +476,7 @@ std::string mostFixesRejected(const GeoreferenceResult& r) {
     judged += f.verdict == FixVerdict::kUsed || f.verdict == FixVerdict::kOutlier ? 1 : 0;
     rejected += f.verdict == FixVerdict::kOutlier ? 1 : 0;
   }
-  if (2 * rejected <= judged) return "";
+  if (5 * rejected <= 4 * judged) return "";
   return std::to_string(rejected) + " of " + std::to_string(judged) +
          " fixes rejected: the GNSS and the SLAM disagree on most of the drive";
 }

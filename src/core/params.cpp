@@ -131,11 +131,12 @@ ParamTable<P> makeTable() {
       realRow<P>("max_sigma_h", &P::max_sigma_h, 0.5, 0.0, 1000, "m",
                  "Warn where the result may lie further than this from the truth (1-sigma per "
                  "horizontal axis, trajectory_sigma.txt; 0: never)"),
-      boolRow<P>("accept_degraded", &P::accept_degraded, false,
-                 "Keep a result that cannot be right (most fixes rejected, a rigid scale 5 % "
-                 "off, most of the map far from every pose), marked degraded in report.json; "
-                 "false: the run fails naming why",
-                 live),
+      boolRow<P>(
+          "accept_degraded", &P::accept_degraded, false,
+          "Keep a result that cannot be right (more than 80 % of the fixes rejected, a rigid "
+          "scale 5 % off, most of the map far from every pose), marked degraded in report.json; "
+          "false: the run fails naming why",
+          live),
       boolRow<P>("autoware", &P::autoware, false,
                  "Also write the map as Autoware takes it: autoware/ with tiles, their metadata "
                  "and map_projector_info.yaml"),

@@ -77,8 +77,9 @@ options:
     --tile-size M         side of the tiles, whole metres (default {tile_size})
     --projector P         frame of the tiles (default {projector}): local_cartesian (ENU at
                           the datum), local_cartesian_utm or mgrs (reprojected point by point)
-  --accept-degraded       keep a result that cannot be right (most fixes rejected, a rigid
-                          scale 5 % off, most of the map far from every pose), marked
+  --accept-degraded       keep a result that cannot be right (more than 80 % of the fixes
+                          rejected, a rigid scale 5 % off, most of the map far from every
+                          pose), marked
                           degraded in report.json; without it such a run fails naming why
   --las                   also write DIR/map_georeferenced.las (LAS 1.4, UTM zone of the datum)
   --to-ll FILE            also convert the points in FILE ("x y z" per line, map frame) through

@@ -187,7 +187,9 @@ std::string truthYaml(const sim::SimDrive& d) {
   s << "datum:\n  latitude: " << d.datum.lat << "\n  longitude: " << d.datum.lon
     << "\n  altitude: " << d.datum.alt << "\n";
   s << "route: " << (p.loop ? "loop" : "open") << "\nlength: " << p.length << "\nseed: " << p.seed
-    << "\nclock_offset: " << p.clock_offset << "\nmap_points: " << p.map_points << "\n";
+    << "\nclock_offset: " << p.clock_offset
+    << "  # SLAM clock minus GNSS clock (s), as gnss_time_offset\nmap_points: " << p.map_points
+    << "\n";
   return s.str();
 }
 

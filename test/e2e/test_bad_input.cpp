@@ -264,6 +264,25 @@ TEST(BadInput, EveryFixAboveTheThresholdNamesTheThreshold) {
   EXPECT_NO_THROW(georeference(inputOf(d), simple));
 }
 
+/// The GNSS of another drive beside this drive's poses: the result cannot be right, and the
+/// reasons say why; this drive's own GNSS gives none.
+TEST(BadInput, TheGnssOfAnotherDriveIsADegradedResult) {
+  const sim::SimDrive d = sim::simulateDrive(small());
+  sim::SimParams other = small(99);
+  other.length *= 1.3;
+  const sim::SimDrive e = sim::simulateDrive(other);
+  DriveInput in = inputOf(d);
+  in.fixes = e.fixes;
+  const GeoreferenceResult r = georeference(in, atSimDatum(d));
+  const std::vector<std::string> reasons = degradedReasons(r, nullptr, "map");
+  ASSERT_FALSE(reasons.empty()) << "scale " << r.scale;
+  EXPECT_THROW(checkDegraded(r, atSimDatum(d), nullptr, "map"), Error);
+  Params accepted = atSimDatum(d);
+  accepted.accept_degraded = true;
+  EXPECT_NO_THROW(checkDegraded(r, accepted, nullptr, "map"));
+  EXPECT_TRUE(degradedReasons(georeference(inputOf(d), atSimDatum(d)), nullptr, "map").empty());
+}
+
 /// The threshold is compared with the horizontal std-dev: fixes at 5 cm horizontally and 20 cm
 /// vertically (3D 21 cm) pass a threshold of 10 cm.
 TEST(BadInput, TheThresholdIsHorizontal) {

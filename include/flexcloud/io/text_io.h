@@ -21,8 +21,9 @@ enum class StampUnit {
 StampUnit parseStampUnit(const std::string& text);
 
 /// TUM file: "stamp x y z qx qy qz qw" per line; '#' comments, blank lines and a first line
-/// that is not numbers (a header) skipped; commas, semicolons and tabs count as spaces. Non-finite numbers are kept (the pipeline counts and drops them).
-/// Throws Error "FILE:LINE: ..." for a missing file, a wrong column count or a non-number.
+/// that is not numbers (a header) skipped; commas, semicolons and tabs count as spaces. Non-finite
+/// numbers are kept (the pipeline counts and drops them). Throws Error "FILE:LINE: ..." for a
+/// missing file, a wrong column count or a non-number.
 Trajectory readTumFile(const std::string& path, StampUnit unit = StampUnit::kAuto);
 
 /// GNSS file "stamp lat lon alt [std_e std_n std_u]" (deg, deg, m, m); without the std-dev
