@@ -131,9 +131,9 @@ double shareFarFromPoses(const GeoreferenceResult& r, const WarpStats& map, doub
 std::string thresholdShortfall(const std::vector<GnssPoint>& gnss, double threshold);
 
 /// Why the result cannot be right, one line each (none: it may be): more than four in five of
-/// the fixes the fusion judged rejected; a rigid scale more than 5 % from 1 (beyond any SLAM's scale
-/// error: the GNSS of another drive, or a map not in metres); with a map, more than half of it
-/// farther than 50 m from every pose.
+/// the fixes the fusion judged rejected; a rigid scale more than 5 % from 1 (beyond any SLAM's
+/// scale error: the GNSS of another drive, or a map not in metres); with a map, more than half of
+/// it farther than 50 m from every pose.
 std::vector<std::string> degradedReasons(const GeoreferenceResult& r, const WarpStats* map,
                                          const std::string& map_frame);
 
