@@ -125,11 +125,6 @@ std::string controlPointShortfall(const ControlPointSelection& cp, std::size_t p
 /// frame: most of a map lies near the drive that made it.
 double shareFarFromPoses(const GeoreferenceResult& r, const WarpStats& map, double distance);
 
-/// " have a horizontal std-dev ... within stddev_threshold T m (their horizontal std-devs: 5th
-/// percentile ..., median ..., 95th percentile ... m; stddev_threshold X keeps 95 % of them)":
-/// the end of an error for a threshold that leaves too few fixes.
-std::string thresholdShortfall(const std::vector<GnssPoint>& gnss, double threshold);
-
 /// Why the result cannot be right, one line each (none: it may be): more than four in five of
 /// the fixes the fusion judged rejected; a rigid scale more than 5 % from 1 (beyond any SLAM's
 /// scale error: the GNSS of another drive, or a map not in metres); with a map, more than half of
@@ -148,8 +143,9 @@ double sharePosesInMap(const GeoreferenceResult& r, const WarpStats& map, double
 
 /// What a user must read beside the result, one line each: a large share of the poses without
 /// GNSS or of the map beyond the GNSS coverage (moved by the rigid transform only; `map` null:
-/// no map), a map that lies mostly far from its poses (in another frame than `map_frame`?),
-/// control points short of those asked for, and revisit conflicts.
+/// no map), a lifted std-dev threshold, every degradedReasons() line as "degraded: ..." (a map
+/// mostly far from its poses among them), control points short of those asked for, and revisit
+/// conflicts.
 std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Params& params,
                                         const WarpStats* map, const std::string& map_frame = "map");
 

@@ -46,8 +46,9 @@ double roundUp2(double x) {
   return std::ceil(x / unit - 1e-9) * unit;
 }
 
-}  // namespace
-
+/// " have a horizontal std-dev ... within stddev_threshold T m (their horizontal std-devs: 5th
+/// percentile ..., median ..., 95th percentile ... m; stddev_threshold X keeps 95 % of them)":
+/// the end of an error for a threshold that leaves too few fixes.
 std::string thresholdShortfall(const std::vector<GnssPoint>& gnss, double threshold) {
   std::vector<double> h;
   for (const auto& g : gnss) {
@@ -67,8 +68,6 @@ std::string thresholdShortfall(const std::vector<GnssPoint>& gnss, double thresh
   s << roundUp2(at(0.95)) << " keeps 95 % of them)";
   return s.str();
 }
-
-namespace {
 
 /// Weight of each pose by the path length it stands for, so a standstill does not dominate.
 std::vector<double> arcWeights(const std::vector<Eigen::Vector3d>& pts) {
@@ -449,15 +448,16 @@ double sharePosesInMap(const GeoreferenceResult& r, const WarpStats& map, double
 
 namespace {
 
+constexpr double kFarFromPoses = 50.0;  // m: a LiDAR map holds most of its points nearer its drive
+
 /// The warning for a map mostly far from the poses: a drive that made part of it (its poses
 /// all inside the map), or a map in another frame.
 std::string farMapWarning(const GeoreferenceResult& r, const WarpStats& map, double far,
                           const std::string& map_frame) {
-  constexpr double kFar = 50.0;
   const auto percent = [](double share) {
     return std::to_string(std::lround(100.0 * share)) + " %";
   };
-  if (sharePosesInMap(r, map, kFar) > 0.95) {
+  if (sharePosesInMap(r, map, kFarFromPoses) > 0.95) {
     return "the poses cover " + percent(1.0 - far) + " of the map (within 50 m): is the drive " +
            "complete? (a bag still playing has given part of its poses) The map beyond them " +
            "has no control point near it";
@@ -500,8 +500,7 @@ std::vector<std::string> degradedReasons(const GeoreferenceResult& r, const Warp
   for (std::string reason : {mostFixesRejected(r), scaleOff(r)}) {
     if (!reason.empty()) out.push_back(std::move(reason));
   }
-  constexpr double kFar = 50.0;
-  if (const double far = map ? shareFarFromPoses(r, *map, kFar) : 0.0; far > 0.5) {
+  if (const double far = map ? shareFarFromPoses(r, *map, kFarFromPoses) : 0.0; far > 0.5) {
     out.push_back(farMapWarning(r, *map, far, map_frame));
   }
   return out;
@@ -530,12 +529,9 @@ std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Param
                   "the nearest control points only, or by the rigid transform");
   }
   if (!r.threshold_lifted.empty()) out.push_back(r.threshold_lifted);
-  for (std::string degraded : {mostFixesRejected(r), scaleOff(r)}) {
-    if (!degraded.empty()) out.push_back("degraded: " + degraded);
-  }
-  constexpr double kFar = 50.0;  // m: a LiDAR map holds most of its points nearer its drive
-  if (const double far = map ? shareFarFromPoses(r, *map, kFar) : 0.0; far > 0.5) {
-    out.push_back(farMapWarning(r, *map, far, map_frame));
+  // Seen only in a result kept with accept_degraded (or before the check).
+  for (const auto& reason : degradedReasons(r, map, map_frame)) {
+    out.push_back("degraded: " + reason);
   }
   if (map != nullptr && map->points > map->non_finite) {
     const double outside =

@@ -9,7 +9,9 @@
 #include <cstring>
 #include <fstream>
 #include <iomanip>
+#include <optional>
 #include <sstream>
+#include <utility>
 
 namespace flexcloud {
 namespace {
@@ -35,10 +37,12 @@ std::vector<std::string> tokensOf(std::string line) {
   return tokens;
 }
 
-bool isNumber(const std::string& tk) {
+/// The number a whole token spells; nullopt where it is not one.
+std::optional<double> numberOf(const std::string& tk) {
   char* end = nullptr;
-  std::strtod(tk.c_str(), &end);
-  return end != tk.c_str() && *end == '\0';
+  const double v = std::strtod(tk.c_str(), &end);
+  if (end == tk.c_str() || *end != '\0') return std::nullopt;
+  return v;
 }
 
 /// The unit of a file's stamps by their size (kAuto): Unix time in s stays below 1e10 until
@@ -88,11 +92,7 @@ Table parseTable(const std::string& text, const std::string& name,
     ++line_no;
     const std::vector<std::string> tokens = tokensOf(line);
     if (tokens.empty() || tokens[0][0] == '#') continue;
-    if (header_allowed && !isNumber(tokens[0])) {
-      header_allowed = false;
-      continue;
-    }
-    header_allowed = false;
+    if (std::exchange(header_allowed, false) && !numberOf(tokens[0])) continue;
     if (std::find(columns.begin(), columns.end(), tokens.size()) == columns.end()) {
       std::string counts;
       for (std::size_t c : columns) counts += (counts.empty() ? "" : " or ") + std::to_string(c);
@@ -103,8 +103,9 @@ Table parseTable(const std::string& text, const std::string& name,
     std::vector<double> row;
     row.reserve(tokens.size());
     for (const auto& tk : tokens) {
-      if (!isNumber(tk)) fail(name, line_no, "'" + tk + "' is not a number");
-      row.push_back(std::strtod(tk.c_str(), nullptr));
+      const std::optional<double> v = numberOf(tk);
+      if (!v) fail(name, line_no, "'" + tk + "' is not a number");
+      row.push_back(*v);
     }
     stamp_text.push_back(tokens[0]);
     t.rows.push_back(std::move(row));

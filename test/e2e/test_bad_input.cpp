@@ -187,7 +187,7 @@ TEST(BadInput, APartOfTheDriveIsNamedAsSuch) {
     if (w.find("of the map (within 50 m)") != std::string::npos) said = w;
     EXPECT_EQ(w.find("frame of the poses"), std::string::npos) << w;
   }
-  EXPECT_EQ(said, "the poses cover " + std::to_string(std::lround(100.0 * (1.0 - far))) +
+  EXPECT_EQ(said, "degraded: the poses cover " + std::to_string(std::lround(100.0 * (1.0 - far))) +
                       " % of the map (within 50 m): is the drive complete? (a bag still playing "
                       "has given part of its poses) The map beyond them has no control point "
                       "near it");

@@ -238,21 +238,21 @@ TEST_F(Tools, TextFilesGiveTheSameGeoreferencing) {
   EXPECT_FALSE(fs::exists(a + "/map_georeferenced.pcd"));  // no map given, none written
 }
 
-/// Rewrites a text table: a header line first, then every row with its first column
-/// (the stamp, s) passed through `stamp`, the columns joined by `sep`.
-void rewriteTable(const std::string& from, const std::string& to, const std::string& header,
-                  const std::function<std::string(double)>& stamp, const std::string& sep) {
+/// Rewrites a text table: `header` first (if any), then every row with its columns passed
+/// through `change` and joined by `sep`.
+void rewriteRows(const std::string& from, const std::string& to,
+                 const std::function<void(std::vector<std::string>&)>& change,
+                 const std::string& header = "", const std::string& sep = " ") {
   std::ifstream in(from);
   std::ofstream o(to);
-  o << header << "\n";
+  if (!header.empty()) o << header << "\n";
   std::string line;
   while (std::getline(in, line)) {
     if (line.empty() || line[0] == '#') continue;
     std::istringstream fields(line);
-    std::string tok;
-    fields >> tok;
-    o << stamp(std::stod(tok));
-    while (fields >> tok) o << sep << tok;
+    std::vector<std::string> row{std::istream_iterator<std::string>(fields), {}};
+    change(row);
+    for (std::size_t i = 0; i < row.size(); ++i) o << (i ? sep : "") << row[i];
     o << "\n";
   }
 }
@@ -262,17 +262,19 @@ void rewriteTable(const std::string& from, const std::string& to, const std::str
 /// run on the plain files.
 TEST_F(Tools, TextFilesAsUsersWriteThem) {
   const std::string csv = out("gnss_ns.csv"), tum = out("poses_ms.txt");
-  rewriteTable(
-      sim() + "/gnss.txt", csv, "stamp,lat,lon,alt,std_e,std_n,std_u",
-      [](double t) { return std::to_string(t * 1e9); }, ",");
+  rewriteRows(
+      sim() + "/gnss.txt", csv,
+      [](std::vector<std::string>& row) { row[0] = std::to_string(std::stod(row[0]) * 1e9); },
+      "stamp,lat,lon,alt,std_e,std_n,std_u", ",");
   double first = NAN;
-  rewriteTable(
-      sim() + "/slam_trajectory.txt", tum, "# poses\ntimestamp x y z qx qy qz qw",
-      [&](double t) {
+  rewriteRows(
+      sim() + "/slam_trajectory.txt", tum,
+      [&](std::vector<std::string>& row) {
+        const double t = std::stod(row[0]);
         if (std::isnan(first)) first = t;
-        return std::to_string(std::llround((t - first) * 1e3));
+        row[0] = std::to_string(std::llround((t - first) * 1e3));
       },
-      " ");
+      "# poses\ntimestamp x y z qx qy qz qw");
   const std::string run = bin("georeference") + " -q --gnss " + csv + " --poses " + tum + datum();
   const Result unit = sh(run + " --out " + out("units"));
   EXPECT_EQ(unit.code, 1) << unit.output;
@@ -332,22 +334,6 @@ TEST_F(Tools, OrdinaryGnssWorksWithTheDefaults) {
   ASSERT_NE(at, std::string::npos) << simple.output;
   const double works = std::stod(simple.output.substr(at + 19));
   EXPECT_EQ(sh(run + " --set fusion=false --stddev-threshold " + std::to_string(works)).code, 0);
-}
-
-/// Rewrites a text table with each row's columns passed through `change`.
-void rewriteRows(const std::string& from, const std::string& to,
-                 const std::function<void(std::vector<std::string>&)>& change) {
-  std::ifstream in(from);
-  std::ofstream o(to);
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    std::istringstream fields(line);
-    std::vector<std::string> row{std::istream_iterator<std::string>(fields), {}};
-    change(row);
-    for (std::size_t i = 0; i < row.size(); ++i) o << (i ? " " : "") << row[i];
-    o << "\n";
-  }
 }
 
 /// Latitude and longitude swapped in a GNSS file: the run fails naming it, and nothing is

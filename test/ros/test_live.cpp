@@ -8,6 +8,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <future>
 #include <mutex>
 
@@ -78,18 +79,25 @@ class Live : public ::testing::Test {
     }
   }
 
-  /// Calls until the node has everything that was published (messages are still in flight).
-  flexcloud::Georeference::Response callWhenComplete() {
+  /// Calls ~georeference until `done` holds for the answer (messages are still in flight), at
+  /// most 40 times; returns the last answer.
+  static flexcloud::Georeference::Response callUntil(
+      const std::function<bool(const flexcloud::Georeference::Response&)>& done) {
     flexcloud::Georeference::Response r;
     for (int i = 0; i < 40; ++i) {
       r = call();
-      if (r.success && r.poses == drive_->slam.size() && r.fixes_used == drive_->fixes.size() &&
-          r.map_points == drive_->map.slam.size()) {
-        break;
-      }
+      if (done(r)) break;
       ros::WallDuration(0.25).sleep();
     }
     return r;
+  }
+
+  /// Calls until the node has everything that was published.
+  flexcloud::Georeference::Response callWhenComplete() {
+    return callUntil([](const flexcloud::Georeference::Response& r) {
+      return r.success && r.poses == drive_->slam.size() && r.fixes_used == drive_->fixes.size() &&
+             r.map_points == drive_->map.slam.size();
+    });
   }
 
   /// ~reset; returns what it said.
@@ -449,12 +457,8 @@ TEST_F(Live, LoadMapReplacesTheMapToWarp) {
 TEST_F(Live, AMostlyRigidResultCarriesAWarningWithTheShare) {
   reset();
   publishDrive(0.25);
-  flexcloud::Georeference::Response r;
-  for (int i = 0; i < 40; ++i) {
-    r = call();
-    if (r.message.find("the poses cover") != std::string::npos) break;
-    ros::WallDuration(0.25).sleep();
-  }
+  flexcloud::Georeference::Response r = callUntil(
+      [](const auto& a) { return a.message.find("the poses cover") != std::string::npos; });
   EXPECT_FALSE(r.success);
   EXPECT_EQ(r.message.rfind("the result cannot be right: the poses cover ", 0), 0u) << r.message;
   EXPECT_NE(r.message.find(" % of the map (within 50 m): is the drive complete? (a bag still "
@@ -467,11 +471,7 @@ TEST_F(Live, AMostlyRigidResultCarriesAWarningWithTheShare) {
   config.accept_degraded = true;
   ASSERT_TRUE(client.setConfiguration(config));
   const ros::Time before = ros::Time::now();
-  for (int i = 0; i < 40; ++i) {
-    r = call();
-    if (r.success && r.map_points == drive_->map.slam.size()) break;
-    ros::WallDuration(0.25).sleep();
-  }
+  r = callUntil([](const auto& a) { return a.success && a.map_points == drive_->map.slam.size(); });
   ASSERT_TRUE(r.success) << r.message;
   ASSERT_FALSE(r.warnings.empty());
   bool found = false;
@@ -494,12 +494,8 @@ TEST_F(Live, AMostlyRigidResultCarriesAWarningWithTheShare) {
 TEST_F(Live, SwappedLatitudeAndLongitudeAreNamed) {
   reset();
   publishDrive(1.0, "gnss", true);
-  flexcloud::Georeference::Response r;
-  for (int i = 0; i < 40; ++i) {
-    r = call();
-    if (r.message.find("swapped") != std::string::npos) break;
-    ros::WallDuration(0.25).sleep();
-  }
+  const flexcloud::Georeference::Response r =
+      callUntil([](const auto& a) { return a.message.find("swapped") != std::string::npos; });
   EXPECT_FALSE(r.success);
   EXPECT_EQ(r.message.rfind("GNSS: latitude and longitude look swapped: the SLAM's track fits "
                             "the fixes to ",
