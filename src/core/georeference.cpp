@@ -64,8 +64,9 @@ std::string thresholdShortfall(const std::vector<GnssPoint>& gnss, double thresh
   const auto at = [&](double q) { return h[static_cast<std::size_t>(q * (h.size() - 1) + 0.5)]; };
   s << " (their horizontal std-devs: 5th percentile " << at(0.05) << " m, median " << at(0.5)
     << " m, 95th percentile " << at(0.95) << " m; stddev_threshold ";
-  s.precision(std::max(0, 1 - static_cast<int>(std::floor(std::log10(at(0.95))))));
-  s << roundUp2(at(0.95)) << " keeps 95 % of them)";
+  const double p95 = at(0.95);
+  if (p95 > 0.0) s.precision(std::clamp(1 - static_cast<int>(std::floor(std::log10(p95))), 0, 17));
+  s << roundUp2(p95) << " keeps 95 % of them)";
   return s.str();
 }
 
