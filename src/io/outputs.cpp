@@ -469,16 +469,10 @@ void finishPlot(Staging& stage, PlotJob& plot, ExportSummary& e) {
   }
 }
 
-/// writeOutputs once the staging folder exists.
-ExportSummary writeStaged(Staging& stage, const std::string& dir, const GeoreferenceResult& r,
-                          const Params& params, const MapWriter& write_map, const RunContext& run) {
-  ExportSummary e;
-  writeRunFiles(stage, r, run, e);
-  // The picture needs only the run's files: drawn while the map is warped and written.
-  std::optional<PlotJob> own;
-  PlotJob* plot = nullptr;
-  if (params.report_png) plot = run.plot != nullptr ? run.plot : &own.emplace(run.plot_script);
-  if (plot != nullptr) plot->draw(stage.folder());
+/// writeStaged once the picture is being drawn.
+ExportSummary writeDrawing(Staging& stage, const std::string& dir, const GeoreferenceResult& r,
+                           const Params& params, const MapWriter& write_map, const RunContext& run,
+                           PlotJob* plot, ExportSummary e) {
   if (write_map) write_map(stage.path(kMapFile));
   checkDegraded(r, params, run.map ? &run.map->warp : nullptr, run.frames.map);
   const auto t0 = std::chrono::steady_clock::now();
@@ -492,6 +486,25 @@ ExportSummary writeStaged(Staging& stage, const std::string& dir, const Georefer
   run.cancel->check(dir + ": before the outputs were moved into place");
   stage.commit("report.json", kOutputNames);
   return e;
+}
+
+/// writeOutputs once the staging folder exists.
+ExportSummary writeStaged(Staging& stage, const std::string& dir, const GeoreferenceResult& r,
+                          const Params& params, const MapWriter& write_map, const RunContext& run) {
+  ExportSummary e;
+  writeRunFiles(stage, r, run, e);
+  // The picture needs only the run's files: drawn while the map is warped and written.
+  std::optional<PlotJob> own;
+  PlotJob* plot = nullptr;
+  if (params.report_png) plot = run.plot != nullptr ? run.plot : &own.emplace(run.plot_script);
+  if (plot != nullptr) plot->draw(stage.folder());
+  try {
+    return writeDrawing(stage, dir, r, params, write_map, run, plot, std::move(e));
+  } catch (...) {
+    // A script still drawing would leave report.png in the staging folder as it goes.
+    if (plot != nullptr) plot->stop();
+    throw;
+  }
 }
 
 }  // namespace

@@ -25,9 +25,10 @@ class PlotJob {
   /// Waits for the script: "" when the picture was written, else one line saying why not (no
   /// script given, python3 or matplotlib missing, the script failed, draw() never called).
   std::string finish();
+  /// Stops the script and waits for it: on an error, before the folder it draws into goes.
+  void stop();
 
  private:
-  void stop();
   pid_t pid_ = -1;
   int to_script_ = -1;    ///< the script's standard input: the folder, one line
   int from_script_ = -1;  ///< the script's standard error, its last line the reason it failed
