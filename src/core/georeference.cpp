@@ -379,15 +379,17 @@ void warnRejectedStretches(const FusionResult& f, bool given, const std::string&
 
 namespace {
 
-/// The clock's warnings: an offset the profiles could not tell from 0 or not at all, or one
-/// told only loosely.
+/// The clock's warnings: an offset the profiles could not tell from 0 but loosely, or not at
+/// all, or one told only loosely. Profiles that put it within 15 ms of 0 confirm the stamps as
+/// given: nothing to warn of (report.json's clock says so).
 void clockWarnings(const FusionResult& f, std::vector<std::string>& out) {
-  constexpr double kLoose = 0.010;  // s: a looser 1-sigma is worth a word
+  constexpr double kLoose = 0.010;     // s: a looser 1-sigma is worth a word
+  constexpr double kConfirms = 0.015;  // s: an offset within its noise of 0 at this 1-sigma
   const ClockEstimate& c = f.clock;
   std::ostringstream s;
   s.setf(std::ios::fixed);
   s.precision(1);
-  if (!f.time_offset_estimated && !c.reason.empty()) {
+  if (!f.time_offset_estimated && !c.reason.empty() && !(c.sigma <= kConfirms)) {
     s << "clock: ";
     if (std::isfinite(c.sigma)) {
       s << "the speed and heading profiles put the GNSS " << 1e3 * c.offset << " +- "
