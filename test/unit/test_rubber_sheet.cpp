@@ -184,6 +184,48 @@ TEST(RubberSheet, NearDuplicatesAreMergedAndCounted) {
   EXPECT_LT((rs.transform(s.src[5]) - s.dst[5]).norm(), 1e-9);
 }
 
+/// A sheet retargeted (its tetrahedralization shared) is the sheet built anew from the same
+/// sources and the new targets, to the bit: every tetrahedron, transform and location; with a
+/// merged near duplicate and a frame folded in; a count that differs or a target that is not
+/// finite is an error.
+TEST(RubberSheet, ARetargetedSheetIsTheSheetBuiltAnew) {
+  Sheet s = makeSheet(200, 21);
+  s.src.push_back(s.src[7] + Eigen::Vector3d(0.0003, 0.0, 0.0));
+  s.dst.push_back(s.dst[7]);
+  Eigen::Isometry3d input_to_source = Eigen::Isometry3d::Identity();
+  input_to_source.linear() = Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  input_to_source.translation() = Eigen::Vector3d(12.0, -5.0, 1.0);
+  const RubberSheet first(s.src, s.dst, identityAffine(), input_to_source);
+  std::vector<Eigen::Vector3d> moved = s.dst;
+  for (std::size_t i = 0; i < moved.size(); ++i) moved[i] += distort(s.dst[i]) * 0.01;
+  Affine34 outside = identityAffine();
+  outside(0, 3) = 2.5;
+  const RubberSheet anew(s.src, moved, outside, input_to_source);
+  const auto again = first.retargeted(moved, outside);
+  ASSERT_EQ(again->numTetrahedra(), anew.numTetrahedra());
+  EXPECT_EQ(again->merged(), 1u);
+  EXPECT_EQ(again->targets(), anew.targets());
+  EXPECT_EQ(again->tetrahedra(), anew.tetrahedra());
+  for (std::size_t t = 0; t < anew.numTetrahedra(); ++t) {
+    const RubberSheet::Location at{static_cast<int>(t), false};
+    EXPECT_EQ(again->affineAt(at), anew.affineAt(at)) << t;
+  }
+  std::mt19937 rng(22);
+  std::uniform_real_distribution<double> u(-20.0, 120.0);
+  for (int i = 0; i < 3000; ++i) {
+    const Eigen::Vector3d q(u(rng), u(rng), u(rng));
+    EXPECT_EQ(again->transform(q), anew.transform(q)) << i;
+    EXPECT_EQ(again->transformReference(q), anew.transformReference(q)) << i;
+  }
+  // The first sheet keeps its own targets.
+  EXPECT_LT((first.transform(input_to_source.inverse() * s.src[3]) - s.dst[3]).norm(), 1e-9);
+  moved.pop_back();
+  EXPECT_THROW(first.retargeted(moved, outside), Error);
+  moved.push_back(s.dst.back());
+  moved[4].y() = std::nan("");
+  EXPECT_THROW(first.retargeted(moved, outside), Error);
+}
+
 /// The same near duplicate with the sheet in UTM-size coordinates, where millimetre cells pass
 /// the range of a 32-bit integer (an undefined conversion before).
 TEST(RubberSheet, NearDuplicatesAreMergedAtUtmSizeCoordinates) {

@@ -42,6 +42,13 @@ class RubberSheet {
   RubberSheet(const RubberSheet&) = delete;
   RubberSheet& operator=(const RubberSheet&) = delete;
 
+  /// The same sources with other targets, given as the constructor took them (one per source
+  /// handed to it, merged ones included), and another outside transform: the sheet those would
+  /// build, sharing this one's tetrahedralization instead of building it again. Throws Error
+  /// when the count differs or a target is not finite.
+  std::shared_ptr<const RubberSheet> retargeted(const std::vector<Eigen::Vector3d>& target,
+                                                const Affine34& outside) const;
+
   /// Builds the location grid on `threads` threads (0: all cores) unless it exists; locate()
   /// builds it on first use otherwise. `sample`: input points like those to come, so the fine
   /// cells go where they are. Thread-safe.
@@ -87,8 +94,11 @@ class RubberSheet {
  private:
   struct Cgal;
 
+  RubberSheet(const RubberSheet& shape, const std::vector<Eigen::Vector3d>& target,
+              const Affine34& outside);
   void buildTets(const Eigen::Isometry3d& input_to_source);
   void replaceDegenerate(const std::vector<bool>& flat);
+  void makeLocator();
 
   std::vector<Eigen::Vector3d> source_;
   std::vector<Eigen::Vector3d> target_;
@@ -101,7 +111,8 @@ class RubberSheet {
   std::vector<LocatorTet> geometry_;
   std::vector<Affine34, Eigen::aligned_allocator<Affine34>> affine_;
   std::vector<std::array<int, 4>> tet_vertices_;
-  std::unique_ptr<Cgal> cgal_;
+  std::vector<std::size_t> kept_;  ///< of the sources handed in, those not merged
+  std::shared_ptr<Cgal> cgal_;     ///< shared by retargeted sheets; its cells numbered once
   std::unique_ptr<TetLocator> locator_;
   mutable std::once_flag grid_once_;
   mutable std::atomic<bool> prepared_{false};

@@ -60,24 +60,34 @@ std::vector<std::size_t> mergeNearDuplicates(const std::vector<Eigen::Vector3d>&
 
 }  // namespace
 
-RubberSheet::RubberSheet(const std::vector<Eigen::Vector3d>& source,
-                         const std::vector<Eigen::Vector3d>& target, const Affine34& outside,
-                         const Eigen::Isometry3d& input_to_source)
-    : outside_(outside), input_to_source_(input_to_source), cgal_(std::make_unique<Cgal>()) {
-  if (source.size() != target.size()) {
-    throw Error("rubber sheet: " + std::to_string(source.size()) + " source points but " +
+namespace {
+
+/// Error for counts that differ or a point that is not finite.
+void checkPairs(std::size_t sources, const std::vector<Eigen::Vector3d>& target,
+                const std::vector<Eigen::Vector3d>* source = nullptr) {
+  if (sources != target.size()) {
+    throw Error("rubber sheet: " + std::to_string(sources) + " source points but " +
                 std::to_string(target.size()) + " targets");
   }
-  for (std::size_t i = 0; i < source.size(); ++i) {
-    if (!source[i].allFinite() || !target[i].allFinite()) {
+  for (std::size_t i = 0; i < target.size(); ++i) {
+    if (!target[i].allFinite() || (source != nullptr && !(*source)[i].allFinite())) {
       throw Error("rubber sheet: control point " + std::to_string(i) + " is not finite");
     }
   }
-  const std::vector<std::size_t> kept = mergeNearDuplicates(source);
-  merged_ = source.size() - kept.size();
+}
+
+}  // namespace
+
+RubberSheet::RubberSheet(const std::vector<Eigen::Vector3d>& source,
+                         const std::vector<Eigen::Vector3d>& target, const Affine34& outside,
+                         const Eigen::Isometry3d& input_to_source)
+    : outside_(outside), input_to_source_(input_to_source), cgal_(std::make_shared<Cgal>()) {
+  checkPairs(source.size(), target, &source);
+  kept_ = mergeNearDuplicates(source);
+  merged_ = source.size() - kept_.size();
   std::vector<std::pair<Cgal::Point, int>> points;
-  points.reserve(kept.size());
-  for (std::size_t i : kept) {
+  points.reserve(kept_.size());
+  for (std::size_t i : kept_) {
     const int idx = static_cast<int>(source_.size());
     source_.push_back(source[i]);
     target_.push_back(target[i]);
@@ -89,9 +99,35 @@ RubberSheet::RubberSheet(const std::vector<Eigen::Vector3d>& source,
     throw Error("rubber sheet: the " + std::to_string(source_.size()) +
                 " control points span no volume (degenerate triangulation)");
   }
+  int next = 0;
+  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) c->info() = next++;
   buildTets(input_to_source);
+  makeLocator();
+}
+
+RubberSheet::RubberSheet(const RubberSheet& shape, const std::vector<Eigen::Vector3d>& target,
+                         const Affine34& outside)
+    : source_(shape.source_),
+      outside_(outside),
+      merged_(shape.merged_),
+      input_to_source_(shape.input_to_source_),
+      kept_(shape.kept_),
+      cgal_(shape.cgal_) {
+  target_.reserve(kept_.size());
+  for (std::size_t i : kept_) target_.push_back(target[i]);
+  buildTets(input_to_source_);
+  makeLocator();
+}
+
+std::shared_ptr<const RubberSheet> RubberSheet::retargeted(
+    const std::vector<Eigen::Vector3d>& target, const Affine34& outside) const {
+  checkPairs(kept_.size() + merged_, target);
+  return std::shared_ptr<const RubberSheet>(new RubberSheet(*this, target, outside));
+}
+
+void RubberSheet::makeLocator() {
   // The locator's box: every source, in the input frame.
-  const Eigen::Isometry3d source_to_input = input_to_source.inverse();
+  const Eigen::Isometry3d source_to_input = input_to_source_.inverse();
   Eigen::Vector3d lo = source_to_input * source_.front();
   Eigen::Vector3d hi = lo;
   for (const auto& src : source_) {
@@ -100,14 +136,15 @@ RubberSheet::RubberSheet(const std::vector<Eigen::Vector3d>& source,
   }
   input_box_ = Eigen::AlignedBox3d(lo, hi);
   locator_ =
-      std::make_unique<TetLocator>(geometry_, tet_vertices_, source_, input_to_source, lo, hi);
+      std::make_unique<TetLocator>(geometry_, tet_vertices_, source_, input_to_source_, lo, hi);
 }
 
 void RubberSheet::buildTets(const Eigen::Isometry3d& input_to_source) {
-  auto& dt = cgal_->dt;
-  int next = 0;
-  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) c->info() = next++;
-  geometry_.resize(static_cast<std::size_t>(next));
+  // Reads the triangulation only (its cells were numbered where it was built): retargeted
+  // sheets share it.
+  const auto& dt = cgal_->dt;
+  const auto next = static_cast<std::size_t>(dt.number_of_finite_cells());
+  geometry_.resize(next);
   affine_.resize(geometry_.size());
   tet_vertices_.resize(geometry_.size());
   std::vector<bool> flat(geometry_.size(), false);

@@ -174,28 +174,29 @@ Cuboid makeCuboid(const Trajectory& aligned, const std::vector<std::optional<Gns
   return corners;
 }
 
+std::vector<Eigen::Vector3d> sheetTargets(const ControlPointSelection& cps,
+                                          const std::vector<PointPair>& extra,
+                                          const Cuboid& cuboid) {
+  std::vector<Eigen::Vector3d> dst;
+  for (const auto& cp : cps.points) dst.push_back(cp.target);
+  for (const auto& e : extra) dst.push_back(e.target);
+  // The corners keep their rigidly aligned position, and so does everything beyond them. (Moving
+  // them with a global affine fit was tried: on simulated drives it multiplied the map error,
+  // since the vertical shear fitted on a near-flat drive grows toward the distant corners.)
+  dst.insert(dst.end(), cuboid.begin(), cuboid.end());
+  return dst;
+}
+
 std::shared_ptr<const RubberSheet> buildSheet(const ControlPointSelection& cps,
                                               const std::vector<PointPair>& extra,
                                               const Eigen::Isometry3d& T_enu_map,
                                               const Cuboid& cuboid) {
   // The triangulation lives in the aligned frame, where the cuboid is axis-aligned.
   std::vector<Eigen::Vector3d> src;
-  std::vector<Eigen::Vector3d> dst;
-  for (const auto& cp : cps.points) {
-    src.push_back(T_enu_map * cp.source);
-    dst.push_back(cp.target);
-  }
-  for (const auto& e : extra) {
-    src.push_back(T_enu_map * e.source);
-    dst.push_back(e.target);
-  }
-  // The corners keep their rigidly aligned position, and so does everything beyond them. (Moving
-  // them with a global affine fit was tried: on simulated drives it multiplied the map error,
-  // since the vertical shear fitted on a near-flat drive grows toward the distant corners.)
-  for (const auto& c : cuboid) {
-    src.push_back(c);
-    dst.push_back(c);
-  }
+  for (const auto& cp : cps.points) src.push_back(T_enu_map * cp.source);
+  for (const auto& e : extra) src.push_back(T_enu_map * e.source);
+  src.insert(src.end(), cuboid.begin(), cuboid.end());
+  const std::vector<Eigen::Vector3d> dst = sheetTargets(cps, extra, cuboid);
   Affine34 outside;
   outside << T_enu_map.linear(), T_enu_map.translation();
   return std::make_shared<RubberSheet>(src, dst, outside, T_enu_map);
@@ -238,7 +239,7 @@ SheetWithBeside buildSheetWithBeside(const ControlPointSelection& cps, const Tra
   for (int round = 0;; ++round) {
     const auto through = buildSheet(cps, out.beside, T_enu_map, cuboid);
     const auto move = fitSheetTargets(*through, cps, out.beside, slam, fused);
-    out.sheet = movedSheet(cps, out.beside, move, T_enu_map, cuboid);
+    out.sheet = movedSheet(*through, cps, out.beside, move, cuboid);
     const std::vector<std::size_t> bad = foldingPoints(
         *out.sheet, out.beside, T_enu_map, vertexArcs(*out.sheet, cps, out.beside, arc), pass_gap);
     if (bad.empty() || round == 3) break;

@@ -43,6 +43,10 @@ std::shared_ptr<const RubberSheet> buildSheet(const ControlPointSelection& cps,
                                               const std::vector<PointPair>& extra,
                                               const Eigen::Isometry3d& T_enu_map,
                                               const Cuboid& cuboid);
+/// The targets of buildSheet()'s point pairs, in its order.
+std::vector<Eigen::Vector3d> sheetTargets(const ControlPointSelection& cps,
+                                          const std::vector<PointPair>& extra,
+                                          const Cuboid& cuboid);
 
 /// options.control_points.count control points on the trajectory: (1 - refine_fraction) of them
 /// spread evenly by arc length over the poses with a target, the rest by error-driven

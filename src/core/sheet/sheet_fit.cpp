@@ -120,17 +120,16 @@ std::vector<Eigen::Vector3d> fitSheetTargets(const RubberSheet& sheet,
   return move;
 }
 
-std::shared_ptr<const RubberSheet> movedSheet(ControlPointSelection cps,
+std::shared_ptr<const RubberSheet> movedSheet(const RubberSheet& through, ControlPointSelection cps,
                                               std::vector<PointPair> beside,
                                               const std::vector<Eigen::Vector3d>& move,
-                                              const Eigen::Isometry3d& T_enu_map,
                                               const Cuboid& cuboid) {
   const std::vector<int> owner = ownersOf(cps, beside);
   for (std::size_t k = 0; k < cps.points.size(); ++k) cps.points[k].target += move[k];
   for (std::size_t b = 0; b < beside.size(); ++b) {
     if (owner[b] >= 0) beside[b].target += move[static_cast<std::size_t>(owner[b])];
   }
-  return buildSheet(cps, beside, T_enu_map, cuboid);
+  return through.retargeted(sheetTargets(cps, beside, cuboid), through.outsideTransform());
 }
 
 }  // namespace flexcloud

@@ -26,12 +26,11 @@ std::vector<Eigen::Vector3d> fitSheetTargets(const RubberSheet& sheet,
                                              const std::vector<PointPair>& beside,
                                              const Trajectory& poses, const Trajectory& fused);
 
-/// The sheet with the control points and their points beside moved by `move` (the cuboid as
-/// given).
-std::shared_ptr<const RubberSheet> movedSheet(ControlPointSelection cps,
+/// `through` (built by buildSheet() from cps, beside and cuboid) with the control points and
+/// their points beside moved by `move` (the cuboid as given): its tetrahedralization, retargeted.
+std::shared_ptr<const RubberSheet> movedSheet(const RubberSheet& through, ControlPointSelection cps,
                                               std::vector<PointPair> beside,
                                               const std::vector<Eigen::Vector3d>& move,
-                                              const Eigen::Isometry3d& T_enu_map,
                                               const Cuboid& cuboid);
 
 }  // namespace flexcloud
