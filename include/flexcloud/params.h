@@ -75,6 +75,7 @@ struct Params {
   double tile_size;
   std::string projector;
   bool las;
+  bool point_sigma;
   bool report_png;
   // Execution.
   int threads;

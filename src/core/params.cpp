@@ -148,6 +148,9 @@ ParamTable<P> makeTable() {
                    "moves), local_cartesian_utm, mgrs"),
       boolRow<P>("las", &P::las, false,
                  "Also write map_georeferenced.las: LAS 1.4 in the datum's UTM zone for GIS tools"),
+      boolRow<P>("point_sigma", &P::point_sigma, false,
+                 "Give every map point the fields sigma_h and sigma_v (float32, m): how far it "
+                 "may lie from its true place (a map of 8 more bytes a point)"),
       boolRow<P>("report_png", &P::report_png, true,
                  "Draw report.png (Python and matplotlib: about 0.6 s of one core per run); "
                  "false leaves it out"),

@@ -53,6 +53,20 @@ XyzLayout xyzLayout(const std::vector<pcl::PCLPointField>& fields, std::size_t p
   return l;
 }
 
+std::vector<pcl::PCLPointField> withSigmaFields(std::vector<pcl::PCLPointField> fields,
+                                                std::size_t point_step, const std::string& name) {
+  for (const auto& f : fields) {
+    if (f.name == "sigma_h" || f.name == "sigma_v") {
+      throw Error(name + ": already holds a field " + f.name +
+                  " (georeferenced before?); point_sigma would write it again");
+    }
+  }
+  const auto step = static_cast<std::uint32_t>(point_step);
+  fields.push_back(pointField("sigma_h", step, pcl::PCLPointField::FLOAT32));
+  fields.push_back(pointField("sigma_v", step + 4, pcl::PCLPointField::FLOAT32));
+  return fields;
+}
+
 WarpStats warpCloud(pcl::PCLPointCloud2& cloud, const RubberSheet& sheet, int threads,
                     const std::string& name, const CancelToken& cancel) {
   return warpPoints(cloud.data.data(), xyzLayout(cloud, name), sheet, threads, name, cancel);

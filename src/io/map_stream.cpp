@@ -19,6 +19,7 @@
 #include "flexcloud/io/pcd_compressed.h"
 #include "flexcloud/io/pcd_io.h"
 #include "flexcloud/io/pcd_stream.h"
+#include "flexcloud/uncertainty/point_sigma.h"
 
 namespace flexcloud {
 namespace {
@@ -128,6 +129,7 @@ class MapJob {
   const PcdHeader& header() const { return reader_.header(); }
   const std::vector<pcl::PCLPointField>& fields() const { return fields_; }
   MapPoints& reader() { return reader_; }
+  const std::string& name() const { return in_; }
 
   /// Builds the location grid from sample blocks spread over the whole file.
   void prepare() {
@@ -143,15 +145,22 @@ class MapJob {
     info_.grid_seconds += since(t1);
   }
 
-  /// Warps points [first, first + n) held at `data`, comparing with the truth before and after.
-  void warp(std::uint8_t* data, std::size_t first, std::size_t n) {
+  /// Warps points [first, first + n) held at `data`, comparing with the truth before and after;
+  /// with point sigmas, their sigmas go into sigmas(slot).
+  void warp(std::uint8_t* data, std::size_t first, std::size_t n, std::size_t slot) {
     options_.cancel->check(in_ + ": warp");
     const std::uint8_t* t = truth_ ? truth_->chunk(first, n) : nullptr;
     if (t) compare(data, t, n, options_.T_enu_map, aligned_);
     const auto t0 = Clock::now();
     XyzLayout part = layout_;
     part.points = n;
-    const WarpStats s = warpPoints(data, part, sheet_, options_.threads, in_, *options_.cancel);
+    SigmaSink sink;
+    if (options_.point_sigma) {
+      sigmas_[slot].resize(2 * n);
+      sink = {options_.point_sigma, sigmas_[slot].data()};
+    }
+    const WarpStats s =
+        warpPoints(data, part, sheet_, options_.threads, in_, *options_.cancel, sink);
     info_.warp_seconds += since(t0);
     info_.warp.points += s.points;
     info_.warp.outside += s.outside;
@@ -159,6 +168,9 @@ class MapJob {
     info_.warp.sample.insert(info_.warp.sample.end(), s.sample.begin(), s.sample.end());
     if (t) compare(data, t, n, Eigen::Isometry3d::Identity(), warped_);
   }
+
+  /// The sigmas of the chunk warped from `slot` (warp()), two floats a point.
+  const float* sigmas(std::size_t slot) const { return sigmas_[slot].data(); }
 
   void finish() {
     info_.input = in_;
@@ -189,6 +201,7 @@ class MapJob {
   MapInfo& info_;
   std::optional<TruthSource> truth_;
   ErrorAccumulator aligned_, warped_;
+  std::array<std::vector<float>, 3> sigmas_;
 };
 
 /// Opens the output's temporary file and starts the body's copy into it (startCopy); false
@@ -202,8 +215,9 @@ bool startBody(MapJob& job, const std::string& in, const AtomicFile& file, const
 
 /// Reads the points from `first` on (at most a chunk) into buf; returns how many, 0 at the end.
 using ChunkRead = std::function<std::size_t(std::uint8_t* buf, std::size_t first)>;
-/// Writes the n warped points of buf, which begin at point `first`.
-using ChunkWrite = std::function<void(const std::uint8_t* buf, std::size_t first, std::size_t n)>;
+/// Writes the n warped points of buf (buffer `slot` of three), which begin at point `first`.
+using ChunkWrite = std::function<void(const std::uint8_t* buf, std::size_t first, std::size_t n,
+                                      std::size_t slot)>;
 
 /// Warps a map chunk by chunk through three buffers: chunk i+1 is read and chunk i-1 written
 /// while chunk i is warped, so the copies in and out of the buffers keep no core waiting.
@@ -227,11 +241,11 @@ void warpChunks(MapJob& job, const ChunkRead& read, const ChunkWrite& write) {
     std::uint8_t* data = buffers[i % 3].data();
     // Chunk i+1 reuses the buffer of chunk i-2, whose write ended before chunk i-1's began.
     next = std::async(std::launch::async, readInto, (i + 1) % 3, first + n);
-    job.warp(data, first, n);
+    job.warp(data, first, n, i % 3);
     if (writing.valid()) writing.get();
-    writing = std::async(std::launch::async, [&write, &job, data, first, n] {
+    writing = std::async(std::launch::async, [&write, &job, data, first, n, i] {
       const auto t0 = Clock::now();
-      write(data, first, n);
+      write(data, first, n, i % 3);
       job.info().write_seconds += since(t0);
     });
     first += n;
@@ -266,7 +280,7 @@ bool warpInPlace(MapJob& job, const std::string& in, const std::string& out, Map
         readAt(fd, buf, n * h.point_step, offset(first), out);
         return n;
       },
-      [&](const std::uint8_t* buf, std::size_t first, std::size_t n) {
+      [&](const std::uint8_t* buf, std::size_t first, std::size_t n, std::size_t) {
         writeAt(fd, buf, n * h.point_step, offset(first), out);
       });
   job.info().read_seconds += body.copier->finish();
@@ -278,15 +292,24 @@ bool warpInPlace(MapJob& job, const std::string& in, const std::string& out, Map
   return true;
 }
 
-/// The portable way: read and write the files in order, through buffers.
-void warpPipeline(MapJob& job, const std::string& out) {
-  job.prepare();
+/// The portable way: read and write the files in order, through buffers (with point sigmas,
+/// the points with theirs).
+void warpPipeline(MapJob& job, const std::string& out, bool sigmas) {
   const PcdHeader& h = job.header();
-  PcdChunkWriter writer(out, job.fields(), h.point_step, static_cast<std::uint32_t>(h.width),
-                        static_cast<std::uint32_t>(h.height));
+  const auto fields =
+      sigmas ? withSigmaFields(job.fields(), h.point_step, job.name()) : job.fields();
+  job.prepare();
+  PcdChunkWriter writer(out, fields, h.point_step + (sigmas ? kPointSigmaBytes : 0),
+                        static_cast<std::uint32_t>(h.width), static_cast<std::uint32_t>(h.height));
+  std::vector<std::uint8_t> wide;  // a chunk's points with their sigmas, as written
   warpChunks(
       job, [&](std::uint8_t* buf, std::size_t) { return job.reader().read(buf, job.chunk()); },
-      [&](const std::uint8_t* buf, std::size_t, std::size_t n) { writer.write(buf, n); });
+      [&](const std::uint8_t* buf, std::size_t, std::size_t n, std::size_t slot) {
+        if (!sigmas) return writer.write(buf, n);
+        wide.resize(n * (h.point_step + kPointSigmaBytes));
+        appendPointSigmas(buf, h.point_step, n, job.sigmas(slot), wide.data());
+        writer.write(wide.data(), n);
+      });
   const auto t0 = Clock::now();
   writer.commit();
   job.info().write_seconds += since(t0);
@@ -298,8 +321,9 @@ void warpPcdFile(const std::string& in, const std::string& out, const RubberShee
                  const MapStreamOptions& options, MapInfo& info) {
   MapJob job(in, sheet, options, info);
   const bool binary = job.header().data == PcdHeader::Data::kBinary;
-  if (!options.in_place || !binary || !warpInPlace(job, in, out, options.precopy)) {
-    warpPipeline(job, out);
+  const bool sigmas = options.point_sigma != nullptr;
+  if (sigmas || !options.in_place || !binary || !warpInPlace(job, in, out, options.precopy)) {
+    warpPipeline(job, out, sigmas);
   }
   job.finish();
 }

@@ -5,12 +5,15 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 
+#include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/io/pcd_io.h"
 #include "flexcloud/io/report_plot.h"
 #include "flexcloud/ros/bag_input.h"
 #include "flexcloud/ros/conversions.h"
 #include "flexcloud/ros/frame_services.h"
+#include "flexcloud/uncertainty/point_sigma.h"
 
 namespace flexcloud {
 namespace {
@@ -422,6 +425,38 @@ std::shared_ptr<const NodeResult> GeoreferenceNode::run(const Job& job, const Ca
   return s;
 }
 
+namespace {
+
+/// The warped map with sigma_h and sigma_v appended to every point (point_sigma.h).
+sensor_msgs::PointCloud2Ptr withPointSigmas(const sensor_msgs::PointCloud2& warped,
+                                            const std::vector<float>& sigmas) {
+  sensor_msgs::PointCloud2Ptr wide(new sensor_msgs::PointCloud2);
+  wide->header = warped.header;
+  wide->height = warped.height;
+  wide->width = warped.width;
+  wide->fields = warped.fields;
+  for (const char* field : {"sigma_h", "sigma_v"}) {
+    sensor_msgs::PointField f;
+    f.name = field;
+    f.offset = static_cast<std::uint32_t>(warped.point_step +
+                                          4 * (wide->fields.size() - warped.fields.size()));
+    f.datatype = sensor_msgs::PointField::FLOAT32;
+    f.count = 1;
+    wide->fields.push_back(f);
+  }
+  wide->is_bigendian = warped.is_bigendian;
+  wide->point_step = static_cast<std::uint32_t>(warped.point_step + kPointSigmaBytes);
+  wide->row_step = wide->point_step * wide->width;
+  wide->is_dense = warped.is_dense;
+  wide->data.resize(static_cast<std::size_t>(wide->row_step) * wide->height);
+  appendPointSigmas(warped.data.data(), warped.point_step,
+                    static_cast<std::size_t>(warped.width) * warped.height, sigmas.data(),
+                    wide->data.data());
+  return wide;
+}
+
+}  // namespace
+
 sensor_msgs::PointCloud2ConstPtr GeoreferenceNode::warpMap(const NodeParams& params,
                                                            const GeoreferenceResult& r,
                                                            const CancelToken& cancel,
@@ -445,8 +480,17 @@ sensor_msgs::PointCloud2ConstPtr GeoreferenceNode::warpMap(const NodeParams& par
   sensor_msgs::PointCloud2Ptr warped(new sensor_msgs::PointCloud2(*map));
   const std::string name = params.map_file.empty() ? nh_.resolveName("map") : params.map_file;
   info.input = name;
+  std::vector<float> sigmas;
+  std::optional<PointSigmaField> field;
+  SigmaSink sink;
+  if (params.core.point_sigma) {
+    withSigmaFields(ros_conv::pclFields(*warped), warped->point_step, name);  // none there yet
+    sigmas.resize(2 * static_cast<std::size_t>(warped->width) * warped->height);
+    sink = {&field.emplace(r.rubbersheet, r.sigma, *r.sheet), sigmas.data()};
+  }
   info.warp = warpPoints(warped->data.data(), ros_conv::xyzLayout(*warped, name), *r.sheet,
-                         params.core.threads, name, cancel);
+                         params.core.threads, name, cancel, sink);
+  if (params.core.point_sigma) warped = withPointSigmas(*warped, sigmas);
   info.warp_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   warped->header.frame_id = params.enu_frame;
   warped->header.stamp = ros::Time::now();

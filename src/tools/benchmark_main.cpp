@@ -30,6 +30,7 @@
 #include "flexcloud/io/text_io.h"
 #include "flexcloud/sim/sim_cloud.h"
 #include "flexcloud/sim/truth_metrics.h"
+#include "flexcloud/uncertainty/point_sigma.h"
 #include "flexcloud/warp/cloud_warp.h"
 
 namespace {
@@ -236,6 +237,35 @@ void benchmarkWarp(const Options& o, int cps, const GeoreferenceResult& r,
               cps, shuffled_s, n / shuffled_s / 1e6);
 }
 
+/// The warp with every point's sigmas (point_sigma), in scan and in random order, against the
+/// warp alone (the rows above): what the sigmas cost.
+void benchmarkWarpWithSigmas(const Options& o, const GeoreferenceResult& r,
+                             const pcl::PCLPointCloud2& original,
+                             const pcl::PCLPointCloud2& random) {
+  const std::size_t n = static_cast<std::size_t>(original.width) * original.height;
+  const PointSigmaField field(r.rubbersheet, r.sigma, *r.sheet);
+  std::vector<float> sigmas(2 * n);
+  for (const pcl::PCLPointCloud2* in : {&original, &random}) {
+    pcl::PCLPointCloud2 cloud = *in;
+    const XyzLayout layout = xyzLayout(cloud, "map");
+    double alone = 1e300, with = 1e300;
+    for (int i = 0; i < o.repeat; ++i) {  // paired, alternating: the machine's noise shared
+      std::copy(in->data.begin(), in->data.end(), cloud.data.begin());
+      alone = std::min(
+          alone, seconds([&] { warpPoints(cloud.data.data(), layout, *r.sheet, o.threads); }));
+      std::copy(in->data.begin(), in->data.end(), cloud.data.begin());
+      with = std::min(with, seconds([&] {
+                        warpPoints(cloud.data.data(), layout, *r.sheet, o.threads, "map",
+                                   neverCancelled(), {&field, sigmas.data()});
+                      }));
+    }
+    std::printf(
+        "| %zu | warp with point sigmas%s | | %.3f s | %.1f M/s | %.2fx the warp alone "
+        "(%.3f s) |\n",
+        n, in == &original ? "" : ", random order", with, n / with / 1e6, with / alone, alone);
+  }
+}
+
 /// The whole offline tool on a map file: best wall time of `repeat` runs and its own peak
 /// memory.
 ProcessRun toolRun(const Options& o, int cps, const std::pair<std::string, std::string>& inputs,
@@ -313,6 +343,7 @@ void onePointCount(const Options& o, std::size_t n) {
     p.threads = o.threads;
     const GeoreferenceResult r = georeference(in, p);
     benchmarkWarp(o, cps, r, original, random);
+    benchmarkWarpWithSigmas(o, r, original, random);
     if (o.tool) {
       benchmarkTool(o, cps, inputs, pcd, dir, n, static_cast<double>(original.data.size()) / 1e6,
                     io);

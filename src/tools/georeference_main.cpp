@@ -30,6 +30,7 @@
 #include "flexcloud/io/text_io.h"
 #include "flexcloud/ros/bag_input.h"
 #include "flexcloud/ros/node_params.h"
+#include "flexcloud/uncertainty/point_sigma.h"
 #include "flexcloud/warp/cloud_warp.h"
 
 namespace {
@@ -82,6 +83,9 @@ options:
                           pose), marked
                           degraded in report.json; without it such a run fails naming why
   --las                   also write DIR/map_georeferenced.las (LAS 1.4, UTM zone of the datum)
+  --point-sigma           give every point of map_georeferenced.pcd (and the Autoware tiles)
+                          the fields sigma_h and sigma_v: how far it may lie from its true
+                          place, m (doc/OUTPUTS.md)
   --to-ll FILE            also convert the points in FILE ("x y z" per line, map frame) through
                           the result to WGS84: DIR/points_ll.txt "x y z lat lon alt"
   --truth FILE.pcd        ground-truth map (same points, same order) in the ENU frame of the
@@ -124,8 +128,10 @@ const std::map<std::string, std::string> kValueShortcuts = {
     {"--threads", "threads"},
     {"--tile-size", "tile_size"},
     {"--projector", "projector"}};
-const std::map<std::string, std::string> kSwitches = {
-    {"--autoware", "autoware"}, {"--las", "las"}, {"--accept-degraded", "accept_degraded"}};
+const std::map<std::string, std::string> kSwitches = {{"--autoware", "autoware"},
+                                                      {"--las", "las"},
+                                                      {"--accept-degraded", "accept_degraded"},
+                                                      {"--point-sigma", "point_sigma"}};
 
 /// The datum of a truth map from truth.yaml in its folder; throws UsageError when there is none
 /// (a truth in another ENU frame would report metres of error that are not there).
@@ -365,12 +371,13 @@ std::string pointsLlText(const GeoreferenceResult& r, const std::vector<Eigen::V
 /// Checks the map's header before the pipeline runs, so a bad map costs nothing: it is then
 /// streamed in every encoding (read, warped and written chunk by chunk: memory stays small
 /// whatever its size). False when there is no map.
-bool checkMap(const Options& o, MapInfo& info) {
+bool checkMap(const Options& o, bool point_sigma, MapInfo& info) {
   if (o.map.empty()) return false;
   const PcdHeader header = readPcdHeader(o.map);
   if (header.points == 0) throw Error(o.map + ": the map holds no points");
   xyzLayout(pclFields(header), header.point_step, header.points, header.points * header.point_step,
             o.map);
+  if (point_sigma) withSigmaFields(pclFields(header), header.point_step, o.map);
   info.input = o.map;
   return true;
 }
@@ -403,6 +410,8 @@ MapWriter streamedMap(const Options& o, const Params& params, const Georeference
     so.T_enu_map = r.T_enu_map;
     so.cancel = &g_interrupt;
     so.precopy = precopy;
+    std::optional<PointSigmaField> sigmas;
+    if (params.point_sigma) so.point_sigma = &sigmas.emplace(r.rubbersheet, r.sigma, *r.sheet);
     warpPcdFile(o.map, path, *r.sheet, so, info);
   };
 }
@@ -418,10 +427,12 @@ int run(int argc, char** argv) {
   const DriveInput drive = loadDrive(o, log, context.frames.map);
   checkCancel();
   MapInfo info;
-  const bool has_map = checkMap(o, info);
+  const bool has_map = checkMap(o, params.point_sigma, info);
   checkCancel();
   // A binary map's body starts on its way into the output now, beside the georeferencing.
-  const std::unique_ptr<MapPrecopy> precopy = has_map ? MapPrecopy::start(o.map, o.out) : nullptr;
+  // (With point sigmas every point grows: the body is written by the warp.)
+  const std::unique_ptr<MapPrecopy> precopy =
+      has_map && !params.point_sigma ? MapPrecopy::start(o.map, o.out) : nullptr;
 
   std::vector<Eigen::Vector3d> to_ll;
   if (!o.to_ll.empty()) to_ll = readPointsFile(o.to_ll);

@@ -11,6 +11,7 @@
 
 #include "flexcloud/georeference.h"
 #include "flexcloud/sim/scenarios.h"
+#include "flexcloud/uncertainty/point_sigma.h"
 #include "test_util.h"
 
 namespace flexcloud {
@@ -29,6 +30,14 @@ Eigen::Vector3d truthAt(const Trajectory& truth, double t, std::size_t& k) {
   const double span = truth[k + 1].stamp - truth[k].stamp;
   const double u = span > 0.0 ? std::clamp((t - truth[k].stamp) / span, 0.0, 1.0) : 0.0;
   return truth[k].position + u * (truth[k + 1].position - truth[k].position);
+}
+
+/// The defaults at the simulator's datum, with the drive's lever arm.
+Params paramsFor(const sim::SimDrive& d) {
+  Params p = test::atSimDatum(d, Params{});
+  p.lever_arm_x = d.params.lever_arm.x(), p.lever_arm_y = d.params.lever_arm.y();
+  p.lever_arm_z = d.params.lever_arm.z();
+  return p;
 }
 
 struct Calibration {
@@ -56,12 +65,8 @@ Calibration calibration(const GeoreferenceResult& r, const Trajectory& truth) {
 // within three times there.
 TEST(SigmaCalibration, SimulatedDrivesAgainstTheirTruth) {
   for (const char* name : kScenarios) {
-    const sim::SimParams sp = sim::scenario(name, 1, 1000);
-    const sim::SimDrive d = sim::simulateDrive(sp);
-    Params p = test::atSimDatum(d, Params{});
-    p.lever_arm_x = sp.lever_arm.x(), p.lever_arm_y = sp.lever_arm.y();
-    p.lever_arm_z = sp.lever_arm.z();
-    const GeoreferenceResult r = georeference(test::inputOf(d), p);
+    const sim::SimDrive d = sim::simulateDrive(sim::scenario(name, 1, 1000));
+    const GeoreferenceResult r = georeference(test::inputOf(d), paramsFor(d));
     const Calibration c = calibration(r, d.truth);
     std::printf(
         "%s: %.1f %% within 2.45 sigma, %.1f %% within 1.96 sigma vertical, median "
@@ -69,10 +74,66 @@ TEST(SigmaCalibration, SimulatedDrivesAgainstTheirTruth) {
         name, 100.0 * c.within_h, 100.0 * c.within_v, r.sigma.median_h, c.rmse);
     const std::string n = name;
     EXPECT_GE(c.within_h, 0.85) << n;
-    if (n != "city_ins_10hz") EXPECT_GE(c.within_v, 0.80) << n;
+    if (n != "city_ins_10hz") {
+      EXPECT_GE(c.within_v, 0.80) << n;
+    }
     const bool clock_led =
         n == "loop_offset_lever" || n == "open_height_drift" || n == "open_varying_drift";
     EXPECT_LE(r.sigma.median_h, (clock_led ? 3.5 : 2.0) * c.rmse) << n;
+  }
+}
+
+// The receiver's first fix 30 s after the SLAM's first pose, its last 30 s before its last: the
+/// Shares of map points within 2.45 sigma_h of their true place, by distance from the route.
+struct PointShares {
+  static constexpr int kBands = 3;  // 0-5, 5-15, 15-30 m
+  double within[kBands] = {0, 0, 0};
+  double points[kBands] = {0, 0, 0};
+  double within_v = 0.0, all = 0.0;
+  double share(int b) const { return points[b] > 0 ? within[b] / points[b] : 0.0; }
+};
+
+int bandOf(double lateral) {
+  return lateral < 5.0 ? 0 : lateral < 15.0 ? 1 : lateral < 30.0 ? 2 : -1;
+}
+
+PointShares pointShares(const sim::SimDrive& d, const GeoreferenceResult& r) {
+  const PointSigmaField field(r.rubbersheet, r.sigma, *r.sheet);
+  PointShares s;
+  for (std::size_t i = 0; i < d.map.slam.size(); ++i) {
+    const RubberSheet::Location at = r.sheet->locate(d.map.slam[i]);
+    const Eigen::Vector3d p = RubberSheet::apply(r.sheet->affineAt(at), d.map.slam[i]);
+    const PointSigma sigma = field.at(p, at.outside ? -1 : at.tet);
+    const Eigen::Vector3d e = p - d.map.truth[i];
+    s.all += 1;
+    s.within_v += std::abs(e.z()) <= 1.96 * sigma.v;
+    const int b = bandOf(d.map.lateral[i]);
+    if (b < 0) continue;
+    s.points[b] += 1;
+    s.within[b] += e.head<2>().norm() <= 2.45 * sigma.h;
+  }
+  return s;
+}
+
+// The map points' sigmas against the simulator's true map: at least 80 % of the points within
+// 2.45 sigma_h of their true place in every band of distance from the route (91-100 % today),
+// and 75 % within 1.96 sigma_v (80-100 %). Where the poses' sigmas cover their errors with room
+// to spare (100 % on the urban drives), so do the points': the 99 % ceiling of the calibration
+// is not met there (doc/ACCURACY.md).
+TEST(SigmaCalibration, SimulatedMapPointsAgainstTheirTruth) {
+  for (const char* name : kScenarios) {
+    const sim::SimDrive d = sim::simulateDrive(sim::scenario(name, 1, 20000));
+    const PointShares s = pointShares(d, georeference(test::inputOf(d), paramsFor(d)));
+    std::printf(
+        "%s points within 2.45 sigma_h: %.1f %% (0-5 m, %.0f), %.1f %% (5-15 m, %.0f), %.1f %% "
+        "(15-30 m, %.0f); within 1.96 sigma_v %.1f %%\n",
+        name, 100 * s.share(0), s.points[0], 100 * s.share(1), s.points[1], 100 * s.share(2),
+        s.points[2], 100 * s.within_v / s.all);
+    for (int b = 0; b < PointShares::kBands; ++b) {
+      if (s.points[b] < 200) continue;
+      EXPECT_GE(s.share(b), 0.80) << name << " band " << b;
+    }
+    EXPECT_GE(s.within_v / s.all, 0.75) << name;
   }
 }
 

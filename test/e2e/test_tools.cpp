@@ -7,6 +7,7 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -693,6 +694,62 @@ TEST_F(Tools, SimulatorRejectsBadSettings) {
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.output.find("length must be in"), std::string::npos) << r.output;
   EXPECT_EQ(sh(bin("simulate_drive") + " --speed fast").code, 2);
+}
+
+/// --point-sigma: every point of the map and of the Autoware tiles gains sigma_h and sigma_v
+/// (float32) after its own fields, its x, y, z as without them; at least 80 % of the points lie
+/// within 2.45 sigma_h of their true place; PCL's reader of x, y, z alone still reads the map; a
+/// map that holds the fields already is refused before any work.
+TEST_F(Tools, PointSigmasGoIntoTheMapAndItsTiles) {
+  const std::string o = out("point_sigma");
+  const std::string args = " -q --bag " + sim() + "/drive.bag" + datum();
+  const Result r = sh(bin("georeference") + args + " --map " + sim() +
+                      "/map.pcd --point-sigma --autoware --set report_png=false --out " + o);
+  ASSERT_EQ(r.code, 0) << r.output;
+  const pcl::PCLPointCloud2 in = readPcd(sim() + "/map.pcd");
+  const pcl::PCLPointCloud2 m = readPcd(o + "/map_georeferenced.pcd");
+  const pcl::PCLPointCloud2 truth = readPcd(sim() + "/truth_map.pcd");
+  ASSERT_EQ(m.fields.size(), in.fields.size() + 2);
+  EXPECT_EQ(m.fields[in.fields.size()].name, "sigma_h");
+  EXPECT_EQ(m.fields.back().name, "sigma_v");
+  EXPECT_EQ(m.fields.back().datatype, pcl::PCLPointField::FLOAT32);
+  const XyzLayout lm = xyzLayout(m, "map"), lt = xyzLayout(truth, "truth");
+  ASSERT_EQ(lm.points, lt.points);
+  std::size_t within = 0;
+  for (std::size_t i = 0; i < lm.points; ++i) {
+    const std::uint8_t* pt = m.data.data() + i * lm.point_step;
+    float sigma_h, sigma_v;
+    std::memcpy(&sigma_h, pt + m.fields[in.fields.size()].offset, 4);
+    std::memcpy(&sigma_v, pt + m.fields.back().offset, 4);
+    ASSERT_TRUE(sigma_h > 0.0F && sigma_h < 10.0F && sigma_v > 0.0F) << i;
+    const Eigen::Vector3d e = lm.get(pt) - lt.get(truth.data.data() + i * lt.point_step);
+    within += e.head<2>().norm() <= 2.45 * sigma_h;
+  }
+  std::printf("points within 2.45 sigma_h: %.1f %%\n", 100.0 * within / lm.points);
+  EXPECT_GE(static_cast<double>(within), 0.8 * lm.points);
+  const Result plain = sh(bin("georeference") + args + " --map " + sim() +
+                          "/map.pcd --set report_png=false --out " + out("no_point_sigma"));
+  ASSERT_EQ(plain.code, 0) << plain.output;
+  const pcl::PCLPointCloud2 p = readPcd(out("no_point_sigma") + "/map_georeferenced.pcd");
+  const XyzLayout lp = xyzLayout(p, "plain");
+  for (std::size_t i = 0; i < lm.points; i += 97) {
+    ASSERT_EQ(lm.get(m.data.data() + i * lm.point_step), lp.get(p.data.data() + i * lp.point_step))
+        << "the sigmas move no point: " << i;
+  }
+  pcl::PointCloud<pcl::PointXYZ> xyz;
+  ASSERT_EQ(pcl::io::loadPCDFile(o + "/map_georeferenced.pcd", xyz), 0);
+  EXPECT_EQ(xyz.size(), lm.points);
+  const fs::path tile = fs::directory_iterator(o + "/autoware/pointcloud_map")->path();
+  const pcl::PCLPointCloud2 t = readPcd(tile.string());
+  EXPECT_EQ(t.fields.back().name, "sigma_v") << tile;
+
+  const Result again = sh(bin("georeference") + args + " --map " + o +
+                          "/map_georeferenced.pcd --point-sigma --out " + out("twice"));
+  EXPECT_EQ(again.code, 1) << again.output;
+  EXPECT_NE(again.output.find("map_georeferenced.pcd: already holds a field sigma_h"),
+            std::string::npos)
+      << again.output;
+  EXPECT_FALSE(fs::exists(out("twice")));
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include <tf2_ros/transform_listener.h>
 
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <functional>
 #include <future>
@@ -166,6 +167,16 @@ TEST_F(Live, TopicsInAccurateMapOutTfAndMarkersToo) {
   const ErrorStats e = againstTruth(*map, sim::truthCloud(drive_->map));
   std::printf("live: map vs truth RMSE %.3f m, MAX %.3f m\n", e.rmse, e.max);
   EXPECT_LE(e.rmse, 0.25);
+  // point_sigma (live.test): sigma_h and sigma_v after the map's own fields, centimetres here.
+  ASSERT_GE(map->fields.size(), 5u);
+  const sensor_msgs::PointField& sigma_h = map->fields[map->fields.size() - 2];
+  EXPECT_EQ(sigma_h.name, "sigma_h");
+  EXPECT_EQ(map->fields.back().name, "sigma_v");
+  EXPECT_EQ(sigma_h.offset + 8, map->point_step);
+  float h = 0.0F;
+  std::memcpy(&h, map->data.data() + 1000 * map->point_step + sigma_h.offset, 4);
+  EXPECT_GT(h, 0.01F);
+  EXPECT_LT(h, 0.5F);
 
   tf2_ros::Buffer buffer;
   tf2_ros::TransformListener listener(buffer);
@@ -410,6 +421,8 @@ TEST_F(Live, SaveWithARelativeFolderNamesTheAbsolutePath) {
   EXPECT_EQ(dir.filename(), save.request.directory);
   EXPECT_TRUE(fs::exists(dir / "report.json"));
   EXPECT_TRUE(fs::exists(dir / "map_georeferenced.pcd"));
+  const pcl::PCLPointCloud2 saved = readPcd((dir / "map_georeferenced.pcd").string());
+  EXPECT_EQ(saved.fields.back().name, "sigma_v");  // point_sigma (live.test)
   fs::remove_all(dir);
 }
 

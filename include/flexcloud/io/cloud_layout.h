@@ -21,6 +21,11 @@ XyzLayout xyzLayout(const std::vector<pcl::PCLPointField>& fields, std::size_t p
                     std::size_t points, std::size_t data_size, const std::string& name);
 XyzLayout xyzLayout(const pcl::PCLPointCloud2& cloud, const std::string& name);
 
+/// `fields` of points of `point_step` bytes with sigma_h and sigma_v (FLOAT32, m) appended after
+/// them (appendPointSigmas); throws Error naming `name` where they hold either already.
+std::vector<pcl::PCLPointField> withSigmaFields(std::vector<pcl::PCLPointField> fields,
+                                                std::size_t point_step, const std::string& name);
+
 /// Warps the xyz of every point with the rubber sheet (map frame -> ENU), on `threads` threads
 /// (0: all cores). Throws Error("NAME: warp: cancelled") once `cancel` is cancelled (the
 /// points are then partly warped).

@@ -12,6 +12,7 @@
 namespace flexcloud {
 
 class MapPrecopy;
+class PointSigmaField;
 
 struct MapStreamOptions {
   int threads = 0;  ///< warp threads; 0: all cores
@@ -23,6 +24,9 @@ struct MapStreamOptions {
   bool in_place = true;
   /// The body's copy started at the run's start (taken over when it holds this map), or null.
   MapPrecopy* precopy = nullptr;
+  /// Where set, every point gains sigma_h and sigma_v from it (point_sigma.h); the body is then
+  /// read, warped and written through buffers.
+  const PointSigmaField* point_sigma = nullptr;
   /// Stops the warp (with Error) once cancelled; the output file is then not created.
   const CancelToken* cancel = &neverCancelled();
 };

@@ -22,6 +22,14 @@ struct XyzLayout {
   void set(std::uint8_t* point, const Eigen::Vector3d& p) const;
 };
 
+class PointSigmaField;
+
+/// Where the warp writes each point's sigmas (point_sigma.h): nothing where field is null.
+struct SigmaSink {
+  const PointSigmaField* field = nullptr;
+  float* out = nullptr;
+};
+
 struct WarpStats {
   std::size_t points = 0;
   std::size_t outside = 0;     ///< beyond the cuboid: moved by the rigid transform, counted
@@ -33,10 +41,11 @@ struct WarpStats {
 
 /// Warps the xyz of every point of a raw buffer of the given layout with the rubber sheet (map
 /// frame -> ENU), on `threads` threads (0: all cores). Throws Error("NAME: warp: cancelled")
-/// once `cancel` is cancelled (the points are then partly warped).
+/// once `cancel` is cancelled (the points are then partly warped). With `sigmas` set, each
+/// point's sigma_h and sigma_v go into sigmas.out (two floats a point, NaN for a NaN point).
 WarpStats warpPoints(std::uint8_t* data, const XyzLayout& layout, const RubberSheet& sheet,
                      int threads, const std::string& name = "map",
-                     const CancelToken& cancel = neverCancelled());
+                     const CancelToken& cancel = neverCancelled(), const SigmaSink& sigmas = {});
 
 /// Deviation of `n` points of `a` (mapped by `f`) from the same points of `b`, added to
 /// `acc` (NaN points skipped).

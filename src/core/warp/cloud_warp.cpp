@@ -5,9 +5,11 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <utility>
 #include <vector>
 
+#include "flexcloud/uncertainty/point_sigma.h"
 #include "parallel.h"
 #include "sheet/tet_locator.h"
 
@@ -42,6 +44,7 @@ int resolveThreads(int requested) { return threadCount(requested); }
 
 namespace {
 
+constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 constexpr std::size_t kSample = 1 << 18;  // points read to place the fine location cells
 
 /// Reads and writes x, y, z of one layout kind without a branch per axis and point.
@@ -195,8 +198,10 @@ class KeySorter {
 template <typename Xyz>
 class RangeWarper {
  public:
-  RangeWarper(std::uint8_t* data, std::size_t step, const Xyz& xyz, const RubberSheet& sheet)
+  RangeWarper(std::uint8_t* data, std::size_t step, const Xyz& xyz, const RubberSheet& sheet,
+              const SigmaSink& sigmas)
       : data_(data),
+        sigmas_(sigmas),
         step_(step),
         xyz_(xyz),
         sheet_(sheet),
@@ -277,6 +282,7 @@ class RangeWarper {
     ++s_.points;
     if (!p.allFinite()) {
       ++s_.non_finite;
+      if (sigmas_.field != nullptr) sigmas_.out[2 * i] = sigmas_.out[2 * i + 1] = kNaNf;
       return;
     }
     RubberSheet::Location loc{last_, false};
@@ -298,7 +304,13 @@ class RangeWarper {
         last_point_ = p;
       }
     }
-    xyz_.set(pt, RubberSheet::apply(sheet_.affineAt(loc), p));
+    const Eigen::Vector3d q = RubberSheet::apply(sheet_.affineAt(loc), p);
+    xyz_.set(pt, q);
+    if (sigmas_.field != nullptr) {
+      const PointSigma s = sigmas_.field->at(q, loc.outside ? -1 : loc.tet);
+      sigmas_.out[2 * i] = s.h;
+      sigmas_.out[2 * i + 1] = s.v;
+    }
   }
 
   /// The visibility walk from the last tetrahedron, which p lies beyond `face` (or on a face:
@@ -320,6 +332,7 @@ class RangeWarper {
   static constexpr double kNear = 50.0;  // m
 
   std::uint8_t* data_;
+  SigmaSink sigmas_;
   std::size_t step_;
   const Xyz& xyz_;
   const RubberSheet& sheet_;
@@ -336,8 +349,9 @@ class RangeWarper {
 
 template <typename Xyz>
 void warpRange(std::uint8_t* data, std::size_t begin, std::size_t end, std::size_t step,
-               const Xyz& xyz, const RubberSheet& sheet, WarpStats& s, const CancelToken& cancel) {
-  RangeWarper<Xyz> warper(data, step, xyz, sheet);
+               const Xyz& xyz, const RubberSheet& sheet, WarpStats& s, const CancelToken& cancel,
+               const SigmaSink& sigmas) {
+  RangeWarper<Xyz> warper(data, step, xyz, sheet, sigmas);
   warper.run(begin, end, cancel);
   s = warper.stats();
 }
@@ -359,7 +373,8 @@ static void prepareFor(const std::uint8_t* data, const XyzLayout& layout, const 
 }
 
 WarpStats warpPoints(std::uint8_t* data, const XyzLayout& layout, const RubberSheet& sheet,
-                     int threads, const std::string& name, const CancelToken& cancel) {
+                     int threads, const std::string& name, const CancelToken& cancel,
+                     const SigmaSink& sigmas) {
   const std::size_t n = layout.points;
   WarpStats total;
   for (std::size_t i = 0, stride = std::max<std::size_t>(1, n / 1000); i < n; i += stride) {
@@ -375,9 +390,9 @@ WarpStats warpPoints(std::uint8_t* data, const XyzLayout& layout, const RubberSh
   parallelRanges(n, parts, threads, [&](std::size_t k, std::size_t begin, std::size_t end) {
     WarpStats& s = part[k];
     if (all_float) {
-      warpRange(data, begin, end, layout.point_step, FloatXyz{layout}, sheet, s, cancel);
+      warpRange(data, begin, end, layout.point_step, FloatXyz{layout}, sheet, s, cancel, sigmas);
     } else {
-      warpRange(data, begin, end, layout.point_step, AnyXyz{layout}, sheet, s, cancel);
+      warpRange(data, begin, end, layout.point_step, AnyXyz{layout}, sheet, s, cancel, sigmas);
     }
   });
   cancel.check(name + ": warp");

@@ -1,0 +1,135 @@
+#include "flexcloud/uncertainty/point_sigma.h"
+
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+namespace flexcloud {
+namespace {
+
+constexpr int kMaxCells = 512;      // cells a side at most: 5 MB of cells
+constexpr double kMinCell = 2.0;    // m
+constexpr double kPadding = 100.0;  // m around the poses, where most of a map lies
+
+}  // namespace
+
+namespace {
+
+double strainOf(const Affine34& a) {
+  const Eigen::Vector3d s = Eigen::JacobiSVD<Eigen::Matrix3d>(a.leftCols<3>()).singularValues();
+  return std::max(std::abs(s(0) - 1.0), std::abs(s(2) - 1.0));
+}
+
+}  // namespace
+
+PointSigmaField::PointSigmaField(const Trajectory& result, const PoseSigmas& sigmas,
+                                 const RubberSheet& sheet, const PointSigmaModel& model)
+    : model_(model) {
+  for (std::size_t t = 0; t < sheet.numTetrahedra(); ++t) {
+    strain_.push_back(static_cast<float>(strainOf(sheet.affineAt({static_cast<int>(t), false}))));
+  }
+  strain_.push_back(static_cast<float>(strainOf(sheet.outsideTransform())));
+  if (result.empty()) throw Error("point sigma: no pose");
+  for (const auto& p : result) positions_.push_back(p.position);
+  if (sigmas.h.size() == result.size() && sigmas.v.size() == result.size()) {
+    sigma_h_ = sigmas.h;
+    sigma_v_ = sigmas.v;
+  } else {
+    sigma_h_.assign(result.size(), std::numeric_limits<double>::infinity());
+    sigma_v_ = sigma_h_;
+  }
+  Eigen::Vector2d lo = positions_[0].head<2>(), hi = lo;
+  for (const auto& p : positions_) {
+    lo = lo.cwiseMin(p.head<2>());
+    hi = hi.cwiseMax(p.head<2>());
+  }
+  origin_ << lo - Eigen::Vector2d::Constant(kPadding), positions_[0].z();
+  const Eigen::Vector2d extent = hi - lo + Eigen::Vector2d::Constant(2 * kPadding);
+  cell_ = std::max(kMinCell, extent.maxCoeff() / kMaxCells);
+  inv_cell_ = 1.0 / cell_;
+  nx_ = std::max(1, static_cast<int>(std::ceil(extent.x() / cell_)));
+  ny_ = std::max(1, static_cast<int>(std::ceil(extent.y() / cell_)));
+  nearest_.assign(static_cast<std::size_t>(nx_) * ny_, -1);
+  seed();
+  sweep(true);
+  sweep(false);
+  const auto f = [](double v) { return static_cast<float>(v); };
+  inv_cellf_ = f(inv_cell_);
+  scatter_h2_ = f(model.scatter_h * model.scatter_h);
+  scatter_v2_ = f(model.scatter_v * model.scatter_v);
+  heading2_ = f(model.heading * model.heading);
+  tilt2_ = f(model.tilt * model.tilt);
+  reach2_ = f(model.strain_reach * model.strain_reach);
+  cells_.resize(nearest_.size());
+  for (std::size_t c = 0; c < nearest_.size(); ++c) {
+    const auto i = static_cast<std::size_t>(nearest_[c]);
+    const Eigen::Vector3d q = positions_[i] - origin_;
+    cells_[c] = {static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()),
+                 static_cast<float>(sigma_h_[i] * sigma_h_[i]),
+                 static_cast<float>(sigma_v_[i] * sigma_v_[i])};
+  }
+}
+
+double PointSigmaField::planDistance2(std::size_t cell, std::int32_t pose) const {
+  const double cx = origin_.x() + (static_cast<double>(cell % nx_) + 0.5) * cell_;
+  const double cy = origin_.y() + (static_cast<double>(cell / nx_) + 0.5) * cell_;
+  const Eigen::Vector3d& p = positions_[static_cast<std::size_t>(pose)];
+  return (p.x() - cx) * (p.x() - cx) + (p.y() - cy) * (p.y() - cy);
+}
+
+void PointSigmaField::seed() {
+  for (std::size_t i = 0; i < positions_.size(); ++i) {
+    const auto cx = static_cast<int>((positions_[i].x() - origin_.x()) / cell_);
+    const auto cy = static_cast<int>((positions_[i].y() - origin_.y()) / cell_);
+    const std::size_t c = static_cast<std::size_t>(std::clamp(cy, 0, ny_ - 1)) * nx_ +
+                          static_cast<std::size_t>(std::clamp(cx, 0, nx_ - 1));
+    const auto pose = static_cast<std::int32_t>(i);
+    if (nearest_[c] < 0 || planDistance2(c, pose) < planDistance2(c, nearest_[c])) {
+      nearest_[c] = pose;
+    }
+  }
+}
+
+/// One pass of a nearest-seed propagation: each cell takes the nearer of its pose and those of
+/// the neighbours already visited in this pass (row by row, then back along the row).
+void PointSigmaField::sweep(bool forward) {
+  const int dir = forward ? 1 : -1;
+  auto take = [&](std::size_t c, int x, int y) {
+    if (x < 0 || y < 0 || x >= nx_ || y >= ny_) return;
+    const std::int32_t q = nearest_[static_cast<std::size_t>(y) * nx_ + x];
+    if (q < 0) return;
+    if (nearest_[c] < 0 || planDistance2(c, q) < planDistance2(c, nearest_[c])) nearest_[c] = q;
+  };
+  for (int k = 0; k < ny_; ++k) {
+    const int y = forward ? k : ny_ - 1 - k;
+    for (int j = 0; j < nx_; ++j) {
+      const int x = forward ? j : nx_ - 1 - j;
+      const std::size_t c = static_cast<std::size_t>(y) * nx_ + x;
+      take(c, x - dir, y);
+      take(c, x - 1, y - dir);
+      take(c, x, y - dir);
+      take(c, x + 1, y - dir);
+    }
+    for (int j = 0; j < nx_; ++j) {
+      const int x = forward ? nx_ - 1 - j : j;
+      take(static_cast<std::size_t>(y) * nx_ + x, x + dir, y);
+    }
+  }
+}
+
+std::size_t PointSigmaField::nearestPose(const Eigen::Vector3d& enu) const {
+  return static_cast<std::size_t>(nearest_[cellOf(enu)]);
+}
+
+void appendPointSigmas(const std::uint8_t* data, std::size_t point_step, std::size_t n,
+                       const float* sigmas, std::uint8_t* out) {
+  const std::size_t wide = point_step + kPointSigmaBytes;
+  for (std::size_t i = 0; i < n; ++i) {
+    std::memcpy(out + i * wide, data + i * point_step, point_step);
+    std::memcpy(out + i * wide + point_step, sigmas + 2 * i, kPointSigmaBytes);
+  }
+}
+
+}  // namespace flexcloud

@@ -1,0 +1,153 @@
+// The map points' sigmas: the nearest pose found through the grid against a search of every
+// pose, the sigma against its formula, and the widened rows against the points they copy.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <random>
+
+#include "flexcloud/io/cloud_layout.h"
+#include "flexcloud/uncertainty/point_sigma.h"
+
+namespace flexcloud {
+namespace {
+
+/// A sheet over the box [-500, 1000]^2 x [-100, 100] that moves every point by `scale` about the
+/// origin (1: not at all).
+std::shared_ptr<RubberSheet> scalingSheet(double scale) {
+  std::vector<Eigen::Vector3d> src, dst;
+  for (double x : {-500.0, 1000.0})
+    for (double y : {-500.0, 1000.0})
+      for (double z : {-100.0, 100.0}) {
+        src.emplace_back(x, y, z);
+        dst.push_back(scale * src.back());
+      }
+  src.emplace_back(10.0, 20.0, 1.0);  // inside: the box then splits into tetrahedra around it
+  dst.push_back(scale * src.back());
+  Affine34 outside = Affine34::Zero();
+  outside.leftCols<3>() = scale * Eigen::Matrix3d::Identity();
+  return std::make_shared<RubberSheet>(src, dst, outside);
+}
+
+/// A winding drive of n poses 1 m apart, with sigmas growing along it.
+Trajectory windingDrive(std::size_t n, PoseSigmas& sigmas) {
+  Trajectory t(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double s = static_cast<double>(i);
+    t[i].stamp = 0.1 * s;
+    t[i].position = {s, 40.0 * std::sin(s / 60.0), 0.01 * s};
+    sigmas.h.push_back(0.01 + 0.001 * s);
+    sigmas.v.push_back(0.02 + 0.002 * s);
+  }
+  return t;
+}
+
+// Within 100 m of the drive's box, the pose the grid names is within a cell's diagonal (1.5 m
+// here) of the nearest in the plan; beyond it (the border cell's pose), within 10 % of its
+// distance.
+TEST(PointSigma, TheGridNamesTheNearestPose) {
+  PoseSigmas sigmas;
+  const Trajectory t = windingDrive(500, sigmas);
+  const PointSigmaField field(t, sigmas, *scalingSheet(1.0));
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> x(-300.0, 800.0), y(-300.0, 300.0);
+  for (int k = 0; k < 2000; ++k) {
+    const Eigen::Vector3d p(x(rng), y(rng), 5.0);
+    double best = 1e300;
+    for (const Pose& q : t) best = std::min(best, (q.position - p).head<2>().norm());
+    const double named = (t[field.nearestPose(p)].position - p).head<2>().norm();
+    const bool inside = std::abs(p.y()) < 140.0 && p.x() > -100.0 && p.x() < 599.0;
+    EXPECT_LE(named, inside ? best + 1.5 : 1.1 * best) << p.transpose();
+  }
+}
+
+// A point 30 m left of pose 100 (at x = 201 m) and 4 m above it: its pose's sigma, the scatter, the
+// heading error times 30 m and the tilt times 4 m horizontally; the tilt times 30 m vertically.
+// Where the sheet stretches the map by 1 %, twice the strain squared times the squares of the
+// distance and of 5 m, both ways.
+TEST(PointSigma, APointsSigmaGrowsWithItsDistanceFromThePose) {
+  PoseSigmas sigmas;
+  Trajectory t = windingDrive(500, sigmas);
+  for (std::size_t i = 0; i < t.size(); ++i) {  // on the centres of the grid's 2 m cells
+    t[i].position = {2.0 * static_cast<double>(i) + 1.0, 0.0, 0.0};
+  }
+  PointSigmaModel m;
+  m.scatter_h = 0.02, m.scatter_v = 0.03, m.heading = 0.001, m.tilt = 0.002;
+  const auto rigid = scalingSheet(1.0);
+  const PointSigmaField field(t, sigmas, *rigid, m);
+  const Eigen::Vector3d p(201.0, 30.0, 4.0);
+  const int tet = rigid->locate(p).tet;
+  ASSERT_GE(tet, 0);
+  EXPECT_NEAR(field.strain(tet), 0.0, 1e-12);
+  const PointSigma s = field.at(p, tet);
+  const double h2 = 0.11 * 0.11 + 0.02 * 0.02 + 0.03 * 0.03 + 0.008 * 0.008;
+  const double v2 = 0.22 * 0.22 + 0.03 * 0.03 + 0.06 * 0.06;
+  EXPECT_NEAR(s.h, std::sqrt(h2), 1e-6);
+  EXPECT_NEAR(s.v, std::sqrt(v2), 1e-6);
+  const auto stretching = scalingSheet(1.01);
+  const PointSigmaField stretched(t, sigmas, *stretching, m);
+  const int in = stretching->locate(p).tet;
+  EXPECT_NEAR(stretched.strain(in), 0.01, 1e-9);
+  const double bent2 = 2 * 0.01 * 0.01 * (30.0 * 30.0 + 4.0 * 4.0 + 5.0 * 5.0);
+  EXPECT_NEAR(stretched.at(p, in).h, std::sqrt(h2 + bent2), 1e-6);
+  EXPECT_NEAR(stretched.at(p, in).v, std::sqrt(v2 + bent2), 1e-6);
+  EXPECT_NEAR(stretched.at(p, -1).h, std::sqrt(h2 + bent2), 1e-6);  // beyond the hull
+  // Without the poses' sigmas every point's sigma is infinite: nothing is known.
+  EXPECT_TRUE(std::isinf(PointSigmaField(t, PoseSigmas{}, *rigid).at({1, 2, 3}, tet).h));
+}
+
+// The warp gives each point the sigma of its warped place and tetrahedron, NaN for a NaN
+// point; each widened row holds the point's bytes unchanged, then sigma_h and sigma_v.
+TEST(PointSigma, TheWarpGivesEachPointItsSigmaAndTheRowsKeepItsBytes) {
+  PoseSigmas sigmas;
+  const Trajectory t = windingDrive(100, sigmas);
+  const auto sheet = scalingSheet(1.02);
+  const PointSigmaField field(t, sigmas, *sheet);
+  const std::size_t step = 20, n = 100000;  // x, y, z float, then an 8-byte field
+  std::vector<std::uint8_t> in(n * step);
+  for (std::size_t i = 0; i < in.size(); ++i) in[i] = static_cast<std::uint8_t>(i * 7);
+  XyzLayout l;
+  l.offset[0] = 0, l.offset[1] = 4, l.offset[2] = 8;
+  l.point_step = step, l.points = n;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double u = static_cast<double>(i);
+    l.set(in.data() + i * step, {u * 0.001, 3.0 + (i % 40), i == 7 ? std::nan("") : 1.0});
+  }
+  std::vector<std::uint8_t> warped = in;
+  std::vector<float> sig(2 * n);
+  warpPoints(warped.data(), l, *sheet, 2, "map", neverCancelled(), {&field, sig.data()});
+  std::vector<std::uint8_t> out(n * (step + kPointSigmaBytes));
+  appendPointSigmas(warped.data(), step, n, sig.data(), out.data());
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint8_t* row = out.data() + i * (step + kPointSigmaBytes);
+    ASSERT_EQ(std::memcmp(row, warped.data() + i * step, step), 0) << i;
+    float h, v;
+    std::memcpy(&h, row + step, 4);
+    std::memcpy(&v, row + step + 4, 4);
+    if (i == 7) {
+      EXPECT_TRUE(std::isnan(h) && std::isnan(v));
+      continue;
+    }
+    const Eigen::Vector3d p = l.get(in.data() + i * step);
+    const PointSigma s = field.at(sheet->transform(p), sheet->locate(p).tet);
+    ASSERT_NEAR(h, s.h, 1e-6) << i;
+    ASSERT_NEAR(v, s.v, 1e-6) << i;
+    EXPECT_GT(h, 0.02F);
+  }
+  const auto fields = withSigmaFields({pointField("x", 0, 7)}, step, "map.pcd");
+  ASSERT_EQ(fields.size(), 3u);
+  EXPECT_EQ(fields[1].name, "sigma_h");
+  EXPECT_EQ(fields[1].offset, step);
+  EXPECT_EQ(fields[2].offset, step + 4);
+  try {
+    withSigmaFields(fields, step + 8, "out/map_georeferenced.pcd");
+    ADD_FAILURE() << "a map with sigma fields took them again";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(),
+                 "out/map_georeferenced.pcd: already holds a field sigma_h (georeferenced "
+                 "before?); point_sigma would write it again");
+  }
+}
+
+}  // namespace
+}  // namespace flexcloud
