@@ -2,6 +2,7 @@
 // pose, the sigma against its formula, and the widened rows against the points they copy.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <random>
@@ -78,7 +79,7 @@ TEST(PointSigma, APointsSigmaGrowsWithItsDistanceFromThePose) {
   const Eigen::Vector3d p(201.0, 30.0, 4.0);
   const int tet = rigid->locate(p).tet;
   ASSERT_GE(tet, 0);
-  EXPECT_NEAR(field.strain(tet), 0.0, 1e-12);
+  EXPECT_NEAR(field.strain(tet).ratio, 0.0, 1e-6);
   const PointSigma s = field.at(p, tet);
   const double h2 = 0.11 * 0.11 + 0.02 * 0.02 + 0.03 * 0.03 + 0.008 * 0.008;
   const double v2 = 0.22 * 0.22 + 0.03 * 0.03 + 0.06 * 0.06;
@@ -87,13 +88,49 @@ TEST(PointSigma, APointsSigmaGrowsWithItsDistanceFromThePose) {
   const auto stretching = scalingSheet(1.01);
   const PointSigmaField stretched(t, sigmas, *stretching, m);
   const int in = stretching->locate(p).tet;
-  EXPECT_NEAR(stretched.strain(in), 0.01, 1e-9);
+  EXPECT_NEAR(stretched.strain(in).ratio, 0.01, 1e-6);
   const double bent2 = 2 * 0.01 * 0.01 * (30.0 * 30.0 + 4.0 * 4.0 + 5.0 * 5.0);
   EXPECT_NEAR(stretched.at(p, in).h, std::sqrt(h2 + bent2), 1e-6);
   EXPECT_NEAR(stretched.at(p, in).v, std::sqrt(v2 + bent2), 1e-6);
   EXPECT_NEAR(stretched.at(p, -1).h, std::sqrt(h2 + bent2), 1e-6);  // beyond the hull
   // Without the poses' sigmas every point's sigma is infinite: nothing is known.
   EXPECT_TRUE(std::isinf(PointSigmaField(t, PoseSigmas{}, *rigid).at({1, 2, 3}, tet).h));
+}
+
+// Two control points 10 cm apart in the map and 2 m apart in the result (a map torn between
+// two passes): the tetrahedra on that edge stretch more than 19 times, yet the points in them
+// may lie only about its 1.9 m change from their place, and their sigma says so.
+TEST(PointSigma, ATornEdgeAddsItsChangeNotItsRatioTimesTheDistance) {
+  std::vector<Eigen::Vector3d> src, dst;
+  for (double x : {-500.0, 1000.0})
+    for (double y : {-500.0, 1000.0})
+      for (double z : {-100.0, 100.0}) src.emplace_back(x, y, z);
+  dst = src;
+  src.emplace_back(10.0, 20.0, 1.0);
+  dst.emplace_back(10.0, 20.0, 1.0);
+  src.emplace_back(10.1, 20.0, 1.0);
+  dst.emplace_back(12.0, 20.0, 1.0);
+  Affine34 identity = Affine34::Zero();
+  identity.leftCols<3>().setIdentity();
+  const RubberSheet sheet(src, dst, identity);
+  PoseSigmas sigmas;
+  const Trajectory t = windingDrive(500, sigmas);
+  const PointSigmaField field(t, sigmas, sheet);
+  int torn = 0;
+  for (std::size_t k = 0; k < sheet.numTetrahedra(); ++k) {
+    const auto& v = sheet.tetrahedra()[k];
+    if (std::count(v.begin(), v.end(), 8) + std::count(v.begin(), v.end(), 9) < 2) continue;
+    ++torn;
+    const TetStrain& s = field.strain(static_cast<int>(k));
+    EXPECT_GE(s.ratio, 19.0 - 1e-6);
+    EXPECT_NEAR(s.change, 1.9, 1e-6);
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+    for (int i : v) centre += 0.25 * sheet.sources()[static_cast<std::size_t>(i)];
+    const PointSigma free = PointSigmaField(t, sigmas, *scalingSheet(1.0)).at(centre, -1);
+    const PointSigma capped = field.at(centre, static_cast<int>(k));
+    EXPECT_NEAR(capped.h * capped.h, free.h * free.h + 1.9 * 1.9, 1e-4);
+  }
+  EXPECT_GT(torn, 0);
 }
 
 // The warp gives each point the sigma of its warped place and tetrahedron, NaN for a NaN

@@ -28,9 +28,19 @@ struct PointSigmaModel {
   double scatter_v = 0.02;  ///< m
   double heading = 0.0005;  ///< rad: the map's rotation about the vertical near a pose
   double tilt = 0.002;      ///< rad: the map's roll and pitch near a pose
-  /// m: the sheet's strain adds about strain * (distance from the pose + this): the variance
-  /// 2 strain^2 (distance^2 + strain_reach^2), never less than the square of that
+  /// m: the sheet's strain adds about its ratio * (distance from the pose + this), as the
+  /// variance 2 ratio^2 (distance^2 + strain_reach^2), never less than the square of that; at
+  /// most the change of its edges' lengths (TetStrain)
   double strain_reach = 5.0;
+};
+
+/// How far a tetrahedron of the sheet stretches the map: how far its transform is from a
+/// rotation (the largest of |s - 1| over its singular values, at most three times its edges'
+/// largest relative change of length; 0: rigid), and the largest change of length of its
+/// edges, m: a point inside may be moved up to about that.
+struct TetStrain {
+  float ratio = 0.0F;
+  float change = 0.0F;
 };
 
 /// The 1-sigma of a map point (ENU, the result's frame), per horizontal axis and vertical, m.
@@ -61,15 +71,16 @@ class PointSigmaField {
     const float dx = x - c.x, dy = y - c.y;
     const float dz = static_cast<float>(enu.z() - origin_.z()) - c.z;
     const float dh2 = dx * dx + dy * dy;
-    const float s = strain(tet);
-    const float bent2 = 2.0F * s * s * (dh2 + dz * dz + reach2_);
+    const TetStrain& s = strain(tet);
+    const float bent2 =
+        std::min(2.0F * s.ratio * s.ratio * (dh2 + dz * dz + reach2_), s.change * s.change);
     const float h2 = c.var_h + scatter_h2_ + heading2_ * dh2 + tilt2_ * dz * dz + bent2;
     const float v2 = c.var_v + scatter_v2_ + tilt2_ * dh2 + bent2;
     return {std::sqrt(h2), std::sqrt(v2)};
   }
-  /// How far tetrahedron `tet`'s transform is from a rotation: the largest of |s - 1| over
-  /// its singular values (0: rigid).
-  float strain(int tet) const {
+  /// How far tetrahedron `tet` stretches the map; beyond the hull (-1), how far the outside
+  /// transform is from a rotation.
+  const TetStrain& strain(int tet) const {
     const auto k = static_cast<std::size_t>(tet);
     return tet >= 0 && k + 1 < strain_.size() ? strain_[k] : strain_.back();
   }
@@ -94,7 +105,7 @@ class PointSigmaField {
 
   std::vector<Eigen::Vector3d> positions_;
   std::vector<double> sigma_h_, sigma_v_;
-  std::vector<float> strain_;  ///< per tetrahedron, and last beyond the hull
+  std::vector<TetStrain> strain_;  ///< per tetrahedron, and last beyond the hull
   PointSigmaModel model_;
   float inv_cellf_ = 1, scatter_h2_ = 0, scatter_v2_ = 0, heading2_ = 0, tilt2_ = 0, reach2_ = 0;
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero();

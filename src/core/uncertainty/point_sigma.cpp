@@ -12,6 +12,9 @@ namespace {
 constexpr int kMaxCells = 512;      // cells a side at most: 5 MB of cells
 constexpr double kMinCell = 2.0;    // m
 constexpr double kPadding = 100.0;  // m around the poses, where most of a map lies
+// A tetrahedron's transform may stretch this many times its edges' largest relative change
+// (shear changes no edge's length as much as it moves the points between them).
+constexpr double kShear = 3.0;
 
 }  // namespace
 
@@ -22,15 +25,44 @@ double strainOf(const Affine34& a) {
   return std::max(std::abs(s(0) - 1.0), std::abs(s(2) - 1.0));
 }
 
+/// The strain of every tetrahedron: how far its transform is from a rotation, but at most three
+/// times the largest relative change of length of its edges, and the largest change itself. A
+/// sliver (a tetrahedron nearly flat) turns its vertices' small differences across its height
+/// into a stretch of hundreds that no point of the map undergoes: its transform alone gave
+/// points of a centimetre map sigmas of kilometres. Its edges' lengths change as much as the
+/// map's distances there do.
+std::vector<TetStrain> tetStrains(const RubberSheet& sheet) {
+  const auto& src = sheet.sources();
+  const auto& dst = sheet.targets();
+  std::vector<TetStrain> out;
+  out.reserve(sheet.numTetrahedra() + 1);
+  for (std::size_t t = 0; t < sheet.numTetrahedra(); ++t) {
+    const auto& v = sheet.tetrahedra()[t];
+    double change = 0.0, stretch = 0.0;
+    for (int a = 0; a < 4; ++a) {
+      for (int b = a + 1; b < 4; ++b) {
+        const auto i = static_cast<std::size_t>(v[a]), k = static_cast<std::size_t>(v[b]);
+        const double from = (src[i] - src[k]).norm();
+        const double by = std::abs((dst[i] - dst[k]).norm() - from);
+        change = std::max(change, by);
+        if (from > 0.0) stretch = std::max(stretch, by / from);
+      }
+    }
+    const double ratio =
+        std::min(strainOf(sheet.affineAt({static_cast<int>(t), false})), kShear * stretch);
+    out.push_back({static_cast<float>(ratio), static_cast<float>(change)});
+  }
+  return out;
+}
+
 }  // namespace
 
 PointSigmaField::PointSigmaField(const Trajectory& result, const PoseSigmas& sigmas,
                                  const RubberSheet& sheet, const PointSigmaModel& model)
     : model_(model) {
-  for (std::size_t t = 0; t < sheet.numTetrahedra(); ++t) {
-    strain_.push_back(static_cast<float>(strainOf(sheet.affineAt({static_cast<int>(t), false}))));
-  }
-  strain_.push_back(static_cast<float>(strainOf(sheet.outsideTransform())));
+  strain_ = tetStrains(sheet);
+  const double outside = strainOf(sheet.outsideTransform());
+  strain_.push_back({static_cast<float>(outside), std::numeric_limits<float>::infinity()});
   if (result.empty()) throw Error("point sigma: no pose");
   for (const auto& p : result) positions_.push_back(p.position);
   if (sigmas.h.size() == result.size() && sigmas.v.size() == result.size()) {
