@@ -124,7 +124,7 @@ PointShares pointShares(const sim::SimDrive& d, const GeoreferenceResult& r) {
 
 // The map points' sigmas against the simulator's true map: at least 80 % of the points within
 // 2.45 sigma_h of their true place in every band of distance from the route (91-100 % today),
-// and 75 % within 1.96 sigma_v (80-100 %). Where the poses' sigmas cover their errors with room
+// and 75 % within 1.96 sigma_v (77-100 %). Where the poses' sigmas cover their errors with room
 // to spare (100 % on the urban drives), so do the points': the 99 % ceiling of the calibration
 // is not met there (doc/ACCURACY.md). No point's sigma_h beyond ten times the largest error and
 // 0.5 m: a sliver tetrahedron's own strain gave points of a centimetre map kilometres.
