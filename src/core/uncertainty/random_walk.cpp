@@ -58,6 +58,11 @@ double jointLogLikelihood(const std::vector<const std::vector<double>*>& values,
   p(0, 0) = kLevelPrior;
   p(1, 1) = q.rate > 0.0 ? kRatePrior : 0.0;
   double ll = 0.0;
+  // The sum of the innovation variances' logarithms as a product, its exponent taken out now
+  // and then: one logarithm a series instead of one a fix and axis (the learning's main cost).
+  double variances = 1.0;
+  long exponent = 0;
+  std::size_t terms = 0;
   bool first = true;
   for (std::size_t j = 0; j < s.var.size(); ++j) {
     const double d = j == 0 ? 0.0 : s.along[j] - s.along[j - 1];
@@ -68,16 +73,24 @@ double jointLogLikelihood(const std::vector<const std::vector<double>*>& values,
     const Vec2 gain = p.col(0) / innovation_var;
     for (std::size_t a = 0; a < x.size(); ++a) {
       const double innovation = (*values[a])[j] - x[a](0);
-      if (!first) {
-        ll -= 0.5 *
-              (innovation * innovation / innovation_var + std::log(2.0 * M_PI * innovation_var));
-      }
+      if (!first) ll -= 0.5 * innovation * innovation / innovation_var;
       x[a] += gain * innovation;
+    }
+    if (!first) {
+      variances *= innovation_var;
+      ++terms;
+      if (terms % 32 == 0) {
+        int e = 0;
+        variances = std::frexp(variances, &e);
+        exponent += e;
+      }
     }
     first = false;
     p -= gain * p.row(0);
   }
-  return ll;
+  const double log_sum = std::log(variances) + static_cast<double>(exponent) * std::log(2.0);
+  return ll - 0.5 * static_cast<double>(x.size()) *
+                  (log_sum + static_cast<double>(terms) * std::log(2.0 * M_PI));
 }
 
 /// The maximum of f on [a, b] by golden section.
