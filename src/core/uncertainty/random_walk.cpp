@@ -58,8 +58,9 @@ double jointLogLikelihood(const std::vector<const std::vector<double>*>& values,
   p(0, 0) = kLevelPrior;
   p(1, 1) = q.rate > 0.0 ? kRatePrior : 0.0;
   double ll = 0.0;
-  // The sum of the innovation variances' logarithms as a product, its exponent taken out now
-  // and then: one logarithm a series instead of one a fix and axis (the learning's main cost).
+  // The sum of the innovation variances' logarithms as a product of their mantissas and a sum
+  // of their exponents: one logarithm a series instead of one a fix and axis (the learning's
+  // main cost), and no variance of any size overflows it.
   double variances = 1.0;
   long exponent = 0;
   std::size_t terms = 0;
@@ -76,11 +77,11 @@ double jointLogLikelihood(const std::vector<const std::vector<double>*>& values,
       if (!first) ll -= 0.5 * innovation * innovation / innovation_var;
       x[a] += gain * innovation;
     }
-    if (!first) {
-      variances *= innovation_var;
-      ++terms;
-      if (terms % 32 == 0) {
-        int e = 0;
+    if (!first) {  // mantissas in [0.5, 1): 32 of them cannot leave the doubles' range
+      int e = 0;
+      variances *= std::frexp(innovation_var, &e);
+      exponent += e;
+      if (++terms % 32 == 0) {
         variances = std::frexp(variances, &e);
         exponent += e;
       }
