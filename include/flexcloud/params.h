@@ -13,6 +13,7 @@
 #include "flexcloud/param_table.h"
 #include "flexcloud/sheet/control_points.h"
 #include "flexcloud/types.h"
+#include "flexcloud/uncertainty/point_sigma.h"
 
 namespace flexcloud {
 
@@ -76,6 +77,9 @@ struct Params {
   std::string projector;
   bool las;
   bool point_sigma;
+  double point_scatter;        // m
+  double point_heading_sigma;  // mrad
+  double point_tilt_sigma;     // mrad
   bool report_png;
   // Execution.
   int threads;
@@ -96,5 +100,6 @@ GnssOptions gnssOptions(const Params& p);
 FusionOptions fusionOptions(const Params& p);
 InterpolationOptions interpolationOptions(const Params& p);
 ControlPointOptions controlPointOptions(const Params& p);
+PointSigmaModel pointSigmaModel(const Params& p);
 
 }  // namespace flexcloud

@@ -151,6 +151,13 @@ ParamTable<P> makeTable() {
       boolRow<P>("point_sigma", &P::point_sigma, false,
                  "Give every map point the fields sigma_h and sigma_v (float32, m): how far it "
                  "may lie from its true place (a map of 8 more bytes a point)"),
+      realRow<P>("point_scatter", &P::point_scatter, 0.02, 0.0, 10, "m",
+                 "With point_sigma: the SLAM map's own scatter about its poses, 1-sigma per axis"),
+      realRow<P>("point_heading_sigma", &P::point_heading_sigma, 0.5, 0.0, 100, "mrad",
+                 "With point_sigma: the map's rotation about the vertical near a pose, 1-sigma "
+                 "(moves a point by this times its distance from the pose)"),
+      realRow<P>("point_tilt_sigma", &P::point_tilt_sigma, 2.0, 0.0, 100, "mrad",
+                 "With point_sigma: the map's roll and pitch near a pose, 1-sigma"),
       boolRow<P>("report_png", &P::report_png, true,
                  "Draw report.png (Python and matplotlib: about 0.6 s of one core per run); "
                  "false leaves it out"),
@@ -224,6 +231,14 @@ FusionOptions fusionOptions(const Params& p) {
 
 InterpolationOptions interpolationOptions(const Params& p) {
   return InterpolationOptions{p.interpolation, p.min_spacing, p.max_gap};
+}
+
+PointSigmaModel pointSigmaModel(const Params& p) {
+  PointSigmaModel m;
+  m.scatter_h = m.scatter_v = p.point_scatter;
+  m.heading = p.point_heading_sigma * 1e-3;
+  m.tilt = p.point_tilt_sigma * 1e-3;
+  return m;
 }
 
 ControlPointOptions controlPointOptions(const Params& p) {

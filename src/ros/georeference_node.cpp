@@ -486,7 +486,8 @@ sensor_msgs::PointCloud2ConstPtr GeoreferenceNode::warpMap(const NodeParams& par
   if (params.core.point_sigma) {
     withSigmaFields(ros_conv::pclFields(*warped), warped->point_step, name);  // none there yet
     sigmas.resize(2 * static_cast<std::size_t>(warped->width) * warped->height);
-    sink = {&field.emplace(r.rubbersheet, r.sigma, *r.sheet), sigmas.data()};
+    sink = {&field.emplace(r.rubbersheet, r.sigma, *r.sheet, pointSigmaModel(params.core)),
+            sigmas.data()};
   }
   info.warp = warpPoints(warped->data.data(), ros_conv::xyzLayout(*warped, name), *r.sheet,
                          params.core.threads, name, cancel, sink);

@@ -411,7 +411,8 @@ MapWriter streamedMap(const Options& o, const Params& params, const Georeference
     so.cancel = &g_interrupt;
     so.precopy = precopy;
     std::optional<PointSigmaField> sigmas;
-    if (params.point_sigma) so.point_sigma = &sigmas.emplace(r.rubbersheet, r.sigma, *r.sheet);
+    if (params.point_sigma)
+      so.point_sigma = &sigmas.emplace(r.rubbersheet, r.sigma, *r.sheet, pointSigmaModel(params));
     warpPcdFile(o.map, path, *r.sheet, so, info);
   };
 }

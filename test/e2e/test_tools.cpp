@@ -743,6 +743,24 @@ TEST_F(Tools, PointSigmasGoIntoTheMapAndItsTiles) {
   const pcl::PCLPointCloud2 t = readPcd(tile.string());
   EXPECT_EQ(t.fields.back().name, "sigma_v") << tile;
 
+  // A map of another quality says so: 0.5 m of scatter is every point's floor.
+  const std::string coarse = out("point_sigma_coarse");
+  const Result c = sh(bin("georeference") + args + " --map " + sim() +
+                      "/map.pcd --point-sigma --set point_scatter=0.5 --set report_png=false "
+                      "--out " +
+                      coarse);
+  ASSERT_EQ(c.code, 0) << c.output;
+  const pcl::PCLPointCloud2 cm = readPcd(coarse + "/map_georeferenced.pcd");
+  float least = 1e9F;
+  for (std::size_t i = 0; i < lm.points; ++i) {
+    float sigma_h;
+    std::memcpy(&sigma_h, cm.data.data() + i * lm.point_step + cm.fields[in.fields.size()].offset,
+                4);
+    least = std::min(least, sigma_h);
+  }
+  EXPECT_GE(least, 0.5F);
+  EXPECT_LT(least, 0.6F);
+
   const Result again = sh(bin("georeference") + args + " --map " + o +
                           "/map_georeferenced.pcd --point-sigma --out " + out("twice"));
   EXPECT_EQ(again.code, 1) << again.output;

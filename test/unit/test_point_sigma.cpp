@@ -8,6 +8,7 @@
 #include <random>
 
 #include "flexcloud/io/cloud_layout.h"
+#include "flexcloud/params.h"
 #include "flexcloud/uncertainty/point_sigma.h"
 
 namespace flexcloud {
@@ -93,6 +94,11 @@ TEST(PointSigma, APointsSigmaGrowsWithItsDistanceFromThePose) {
   EXPECT_NEAR(stretched.at(p, in).h, std::sqrt(h2 + bent2), 1e-6);
   EXPECT_NEAR(stretched.at(p, in).v, std::sqrt(v2 + bent2), 1e-6);
   EXPECT_NEAR(stretched.at(p, -1).h, std::sqrt(h2 + bent2), 1e-6);  // beyond the hull
+  // The parameters in their units: m and mrad.
+  Params params;
+  params.point_scatter = 0.02, params.point_heading_sigma = 1.0, params.point_tilt_sigma = 2.0;
+  const PointSigmaField from_params(t, sigmas, *rigid, pointSigmaModel(params));
+  EXPECT_NEAR(from_params.at(p, tet).h, s.h, 1e-6);
   // Without the poses' sigmas every point's sigma is infinite: nothing is known.
   EXPECT_TRUE(std::isinf(PointSigmaField(t, PoseSigmas{}, *rigid).at({1, 2, 3}, tet).h));
 }

@@ -22,7 +22,8 @@
 namespace flexcloud {
 
 /// The errors a point adds to its pose's: 1-sigma values. The defaults are those of the LiDAR
-/// SLAM of the simulated drives (doc/ACCURACY.md); a map of another quality sets its own.
+/// SLAM of the simulated drives (doc/ACCURACY.md); a map of another quality sets its own
+/// (point_scatter, point_heading_sigma, point_tilt_sigma: pointSigmaModel() in params.h).
 struct PointSigmaModel {
   double scatter_h = 0.02;  ///< m per horizontal axis: the map's own noise about its poses
   double scatter_v = 0.02;  ///< m
