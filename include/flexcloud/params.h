@@ -13,9 +13,10 @@
 #include "flexcloud/param_table.h"
 #include "flexcloud/sheet/control_points.h"
 #include "flexcloud/types.h"
-#include "flexcloud/uncertainty/point_sigma.h"
 
 namespace flexcloud {
+
+struct PointSigmaModel;  // flexcloud/uncertainty/point_sigma.h
 
 std::string toString(InterpolationMode mode);
 /// Parses "spline" / "nearest"; throws Error naming the value otherwise.

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "flexcloud/geo/projection.h"
+#include "flexcloud/uncertainty/point_sigma.h"
 #include "sheet/sheet_builder.h"
 
 namespace flexcloud {

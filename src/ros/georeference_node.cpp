@@ -427,23 +427,16 @@ std::shared_ptr<const NodeResult> GeoreferenceNode::run(const Job& job, const Ca
 
 namespace {
 
-/// The warped map with sigma_h and sigma_v appended to every point (point_sigma.h).
+/// The warped map with its fields `fields` (withSigmaFields()): sigma_h and sigma_v appended to
+/// every point (point_sigma.h).
 sensor_msgs::PointCloud2Ptr withPointSigmas(const sensor_msgs::PointCloud2& warped,
+                                            const std::vector<pcl::PCLPointField>& fields,
                                             const std::vector<float>& sigmas) {
   sensor_msgs::PointCloud2Ptr wide(new sensor_msgs::PointCloud2);
   wide->header = warped.header;
   wide->height = warped.height;
   wide->width = warped.width;
-  wide->fields = warped.fields;
-  for (const char* field : {"sigma_h", "sigma_v"}) {
-    sensor_msgs::PointField f;
-    f.name = field;
-    f.offset = static_cast<std::uint32_t>(warped.point_step +
-                                          4 * (wide->fields.size() - warped.fields.size()));
-    f.datatype = sensor_msgs::PointField::FLOAT32;
-    f.count = 1;
-    wide->fields.push_back(f);
-  }
+  pcl_conversions::fromPCL(fields, wide->fields);
   wide->is_bigendian = warped.is_bigendian;
   wide->point_step = static_cast<std::uint32_t>(warped.point_step + kPointSigmaBytes);
   wide->row_step = wide->point_step * wide->width;
@@ -483,15 +476,16 @@ sensor_msgs::PointCloud2ConstPtr GeoreferenceNode::warpMap(const NodeParams& par
   std::vector<float> sigmas;
   std::optional<PointSigmaField> field;
   SigmaSink sink;
-  if (params.core.point_sigma) {
-    withSigmaFields(ros_conv::pclFields(*warped), warped->point_step, name);  // none there yet
+  std::vector<pcl::PCLPointField> wide_fields;
+  if (params.core.point_sigma) {  // refused before the warp where the map holds them already
+    wide_fields = withSigmaFields(ros_conv::pclFields(*warped), warped->point_step, name);
     sigmas.resize(2 * static_cast<std::size_t>(warped->width) * warped->height);
     sink = {&field.emplace(r.rubbersheet, r.sigma, *r.sheet, pointSigmaModel(params.core)),
             sigmas.data()};
   }
   info.warp = warpPoints(warped->data.data(), ros_conv::xyzLayout(*warped, name), *r.sheet,
                          params.core.threads, name, cancel, sink);
-  if (params.core.point_sigma) warped = withPointSigmas(*warped, sigmas);
+  if (params.core.point_sigma) warped = withPointSigmas(*warped, wide_fields, sigmas);
   info.warp_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   warped->header.frame_id = params.enu_frame;
   warped->header.stamp = ros::Time::now();

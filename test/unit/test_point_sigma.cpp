@@ -99,6 +99,14 @@ TEST(PointSigma, APointsSigmaGrowsWithItsDistanceFromThePose) {
   params.point_scatter = 0.02, params.point_heading_sigma = 1.0, params.point_tilt_sigma = 2.0;
   const PointSigmaField from_params(t, sigmas, *rigid, pointSigmaModel(params));
   EXPECT_NEAR(from_params.at(p, tet).h, s.h, 1e-6);
+  // A place however far from the poses (a stray point of a map) takes the border cell's pose
+  // and a sigma that is large and a number.
+  for (const double far : {1e6, -1e12, 1e30}) {
+    const PointSigma at_far = field.at({far, far, 0.0}, -1);
+    EXPECT_TRUE(std::isfinite(at_far.h) && std::isfinite(at_far.v)) << far;
+    EXPECT_GT(at_far.h, s.h) << far;
+    EXPECT_LT(field.nearestPose({far, far, 0.0}), t.size());
+  }
   // Without the poses' sigmas every point's sigma is infinite: nothing is known.
   EXPECT_TRUE(std::isinf(PointSigmaField(t, PoseSigmas{}, *rigid).at({1, 2, 3}, tet).h));
 }

@@ -65,17 +65,17 @@ class PointSigmaField {
   PointSigma at(const Eigen::Vector3d& enu, int tet) const {
     const float x = static_cast<float>(enu.x() - origin_.x());
     const float y = static_cast<float>(enu.y() - origin_.y());
-    const int cx = std::clamp(static_cast<int>(x * inv_cellf_), 0, nx_ - 1);
-    const int cy = std::clamp(static_cast<int>(y * inv_cellf_), 0, ny_ - 1);
-    const CellPose& c = cells_[static_cast<std::size_t>(cy) * static_cast<std::size_t>(nx_) +
-                               static_cast<std::size_t>(cx)];
+    const CellPose& c = cells_[cellOf(x, y)];
     const float dx = x - c.x, dy = y - c.y;
     const float dz = static_cast<float>(enu.z() - origin_.z()) - c.z;
-    const float dh2 = dx * dx + dy * dy;
+    // Squares bounded (a stray point 1e30 m away): every term stays a number, never inf * 0.
+    constexpr float kFar2 = 1e30F;
+    const float dh2 = std::min(dx * dx + dy * dy, kFar2);
+    const float dz2 = std::min(dz * dz, kFar2);
     const TetStrain& s = strain(tet);
     const float bent2 =
-        std::min(2.0F * s.ratio * s.ratio * (dh2 + dz * dz + reach2_), s.change * s.change);
-    const float h2 = c.var_h + scatter_h2_ + heading2_ * dh2 + tilt2_ * dz * dz + bent2;
+        std::min(2.0F * s.ratio * s.ratio * (dh2 + dz2 + reach2_), s.change * s.change);
+    const float h2 = c.var_h + scatter_h2_ + heading2_ * dh2 + tilt2_ * dz2 + bent2;
     const float v2 = c.var_v + scatter_v2_ + tilt2_ * dh2 + bent2;
     return {std::sqrt(h2), std::sqrt(v2)};
   }
@@ -97,20 +97,21 @@ class PointSigmaField {
   void seed();
   void sweep(bool forward);
   double planDistance2(std::size_t cell, std::int32_t pose) const;
-  std::size_t cellOf(const Eigen::Vector3d& enu) const {
-    const double fx = std::clamp((enu.x() - origin_.x()) * inv_cell_, 0.0, nx_ - 1.0);
-    const double fy = std::clamp((enu.y() - origin_.y()) * inv_cell_, 0.0, ny_ - 1.0);
+  /// The cell of a place (x, y about the grid's origin); one at the border for a place beyond
+  /// it, however far (clamped before the conversion to an integer).
+  std::size_t cellOf(float x, float y) const {
+    const float fx = std::clamp(x * inv_cell_, 0.0F, static_cast<float>(nx_ - 1));
+    const float fy = std::clamp(y * inv_cell_, 0.0F, static_cast<float>(ny_ - 1));
     return static_cast<std::size_t>(fy) * static_cast<std::size_t>(nx_) +
            static_cast<std::size_t>(fx);
   }
 
   std::vector<Eigen::Vector3d> positions_;
-  std::vector<double> sigma_h_, sigma_v_;
   std::vector<TetStrain> strain_;  ///< per tetrahedron, and last beyond the hull
-  PointSigmaModel model_;
-  float inv_cellf_ = 1, scatter_h2_ = 0, scatter_v2_ = 0, heading2_ = 0, tilt2_ = 0, reach2_ = 0;
+  float scatter_h2_ = 0, scatter_v2_ = 0, heading2_ = 0, tilt2_ = 0, reach2_ = 0;
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero();
-  double cell_ = 1.0, inv_cell_ = 1.0;
+  double cell_ = 1.0;  ///< m
+  float inv_cell_ = 1.0F;
   int nx_ = 1, ny_ = 1;
   std::vector<std::int32_t> nearest_;  ///< per cell, row by row
   std::vector<CellPose> cells_;        ///< the same, ready for at()

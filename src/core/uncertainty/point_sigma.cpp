@@ -16,10 +16,6 @@ constexpr double kPadding = 100.0;  // m around the poses, where most of a map l
 // (shear changes no edge's length as much as it moves the points between them).
 constexpr double kShear = 3.0;
 
-}  // namespace
-
-namespace {
-
 double strainOf(const Affine34& a) {
   const Eigen::Vector3d s = Eigen::JacobiSVD<Eigen::Matrix3d>(a.leftCols<3>()).singularValues();
   return std::max(std::abs(s(0) - 1.0), std::abs(s(2) - 1.0));
@@ -58,20 +54,12 @@ std::vector<TetStrain> tetStrains(const RubberSheet& sheet) {
 }  // namespace
 
 PointSigmaField::PointSigmaField(const Trajectory& result, const PoseSigmas& sigmas,
-                                 const RubberSheet& sheet, const PointSigmaModel& model)
-    : model_(model) {
-  strain_ = tetStrains(sheet);
-  const double outside = strainOf(sheet.outsideTransform());
-  strain_.push_back({static_cast<float>(outside), std::numeric_limits<float>::infinity()});
+                                 const RubberSheet& sheet, const PointSigmaModel& model) {
   if (result.empty()) throw Error("point sigma: no pose");
+  strain_ = tetStrains(sheet);
+  strain_.push_back({static_cast<float>(strainOf(sheet.outsideTransform())),
+                     std::numeric_limits<float>::infinity()});
   for (const auto& p : result) positions_.push_back(p.position);
-  if (sigmas.h.size() == result.size() && sigmas.v.size() == result.size()) {
-    sigma_h_ = sigmas.h;
-    sigma_v_ = sigmas.v;
-  } else {
-    sigma_h_.assign(result.size(), std::numeric_limits<double>::infinity());
-    sigma_v_ = sigma_h_;
-  }
   Eigen::Vector2d lo = positions_[0].head<2>(), hi = lo;
   for (const auto& p : positions_) {
     lo = lo.cwiseMin(p.head<2>());
@@ -80,7 +68,7 @@ PointSigmaField::PointSigmaField(const Trajectory& result, const PoseSigmas& sig
   origin_ << lo - Eigen::Vector2d::Constant(kPadding), positions_[0].z();
   const Eigen::Vector2d extent = hi - lo + Eigen::Vector2d::Constant(2 * kPadding);
   cell_ = std::max(kMinCell, extent.maxCoeff() / kMaxCells);
-  inv_cell_ = 1.0 / cell_;
+  inv_cell_ = static_cast<float>(1.0 / cell_);
   nx_ = std::max(1, static_cast<int>(std::ceil(extent.x() / cell_)));
   ny_ = std::max(1, static_cast<int>(std::ceil(extent.y() / cell_)));
   nearest_.assign(static_cast<std::size_t>(nx_) * ny_, -1);
@@ -88,19 +76,20 @@ PointSigmaField::PointSigmaField(const Trajectory& result, const PoseSigmas& sig
   sweep(true);
   sweep(false);
   const auto f = [](double v) { return static_cast<float>(v); };
-  inv_cellf_ = f(inv_cell_);
   scatter_h2_ = f(model.scatter_h * model.scatter_h);
   scatter_v2_ = f(model.scatter_v * model.scatter_v);
   heading2_ = f(model.heading * model.heading);
   tilt2_ = f(model.tilt * model.tilt);
   reach2_ = f(model.strain_reach * model.strain_reach);
+  // Without the poses' sigmas nothing is known: every point's sigma is infinite.
+  const bool known = sigmas.h.size() == result.size() && sigmas.v.size() == result.size();
+  const double inf = std::numeric_limits<double>::infinity();
   cells_.resize(nearest_.size());
   for (std::size_t c = 0; c < nearest_.size(); ++c) {
     const auto i = static_cast<std::size_t>(nearest_[c]);
     const Eigen::Vector3d q = positions_[i] - origin_;
-    cells_[c] = {static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()),
-                 static_cast<float>(sigma_h_[i] * sigma_h_[i]),
-                 static_cast<float>(sigma_v_[i] * sigma_v_[i])};
+    const double h = known ? sigmas.h[i] : inf, v = known ? sigmas.v[i] : inf;
+    cells_[c] = {f(q.x()), f(q.y()), f(q.z()), f(h * h), f(v * v)};
   }
 }
 
@@ -152,7 +141,8 @@ void PointSigmaField::sweep(bool forward) {
 }
 
 std::size_t PointSigmaField::nearestPose(const Eigen::Vector3d& enu) const {
-  return static_cast<std::size_t>(nearest_[cellOf(enu)]);
+  return static_cast<std::size_t>(nearest_[cellOf(static_cast<float>(enu.x() - origin_.x()),
+                                                  static_cast<float>(enu.y() - origin_.y()))]);
 }
 
 void appendPointSigmas(const std::uint8_t* data, std::size_t point_step, std::size_t n,
