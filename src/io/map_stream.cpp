@@ -157,7 +157,7 @@ class MapJob {
     SigmaSink sink;
     if (options_.point_sigma) {
       sigmas_[slot].resize(2 * n);
-      sink = {options_.point_sigma, sigmas_[slot].data()};
+      sink = {options_.point_sigma, reinterpret_cast<std::uint8_t*>(sigmas_[slot].data())};
     }
     const WarpStats s =
         warpPoints(data, part, sheet_, options_.threads, in_, *options_.cancel, sink);

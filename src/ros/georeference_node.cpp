@@ -427,24 +427,23 @@ std::shared_ptr<const NodeResult> GeoreferenceNode::run(const Job& job, const Ca
 
 namespace {
 
-/// The warped map with its fields `fields` (withSigmaFields()): sigma_h and sigma_v appended to
-/// every point (point_sigma.h).
-sensor_msgs::PointCloud2Ptr withPointSigmas(const sensor_msgs::PointCloud2& warped,
-                                            const std::vector<pcl::PCLPointField>& fields,
-                                            const std::vector<float>& sigmas) {
+/// A copy of `map` with its fields `fields` (withSigmaFields()): every point followed by room
+/// for its sigma_h and sigma_v, which the warp writes there (point_sigma.h). One copy of the
+/// map beside the original, as without the sigmas.
+sensor_msgs::PointCloud2Ptr widenedForSigmas(const sensor_msgs::PointCloud2& map,
+                                             const std::vector<pcl::PCLPointField>& fields) {
   sensor_msgs::PointCloud2Ptr wide(new sensor_msgs::PointCloud2);
-  wide->header = warped.header;
-  wide->height = warped.height;
-  wide->width = warped.width;
+  wide->header = map.header;
+  wide->height = map.height;
+  wide->width = map.width;
   pcl_conversions::fromPCL(fields, wide->fields);
-  wide->is_bigendian = warped.is_bigendian;
-  wide->point_step = static_cast<std::uint32_t>(warped.point_step + kPointSigmaBytes);
+  wide->is_bigendian = map.is_bigendian;
+  wide->point_step = static_cast<std::uint32_t>(map.point_step + kPointSigmaBytes);
   wide->row_step = wide->point_step * wide->width;
-  wide->is_dense = warped.is_dense;
+  wide->is_dense = map.is_dense;
   wide->data.resize(static_cast<std::size_t>(wide->row_step) * wide->height);
-  appendPointSigmas(warped.data.data(), warped.point_step,
-                    static_cast<std::size_t>(warped.width) * warped.height, sigmas.data(),
-                    wide->data.data());
+  widenPoints(map.data.data(), map.point_step, static_cast<std::size_t>(map.width) * map.height,
+              wide->data.data());
   return wide;
 }
 
@@ -470,22 +469,21 @@ sensor_msgs::PointCloud2ConstPtr GeoreferenceNode::warpMap(const NodeParams& par
   }
   if (!map) return nullptr;
   const auto t0 = std::chrono::steady_clock::now();
-  sensor_msgs::PointCloud2Ptr warped(new sensor_msgs::PointCloud2(*map));
   const std::string name = params.map_file.empty() ? nh_.resolveName("map") : params.map_file;
   info.input = name;
-  std::vector<float> sigmas;
   std::optional<PointSigmaField> field;
   SigmaSink sink;
-  std::vector<pcl::PCLPointField> wide_fields;
+  sensor_msgs::PointCloud2Ptr warped;
   if (params.core.point_sigma) {  // refused before the warp where the map holds them already
-    wide_fields = withSigmaFields(ros_conv::pclFields(*warped), warped->point_step, name);
-    sigmas.resize(2 * static_cast<std::size_t>(warped->width) * warped->height);
+    warped =
+        widenedForSigmas(*map, withSigmaFields(ros_conv::pclFields(*map), map->point_step, name));
     sink = {&field.emplace(r.rubbersheet, r.sigma, *r.sheet, pointSigmaModel(params.core)),
-            sigmas.data()};
+            warped->data.data() + map->point_step, warped->point_step};
+  } else {
+    warped.reset(new sensor_msgs::PointCloud2(*map));
   }
   info.warp = warpPoints(warped->data.data(), ros_conv::xyzLayout(*warped, name), *r.sheet,
                          params.core.threads, name, cancel, sink);
-  if (params.core.point_sigma) warped = withPointSigmas(*warped, wide_fields, sigmas);
   info.warp_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   warped->header.frame_id = params.enu_frame;
   warped->header.stamp = ros::Time::now();

@@ -166,7 +166,8 @@ TEST(PointSigma, TheWarpGivesEachPointItsSigmaAndTheRowsKeepItsBytes) {
   }
   std::vector<std::uint8_t> warped = in;
   std::vector<float> sig(2 * n);
-  warpPoints(warped.data(), l, *sheet, 2, "map", neverCancelled(), {&field, sig.data()});
+  warpPoints(warped.data(), l, *sheet, 2, "map", neverCancelled(),
+             {&field, reinterpret_cast<std::uint8_t*>(sig.data())});
   std::vector<std::uint8_t> out(n * (step + kPointSigmaBytes));
   appendPointSigmas(warped.data(), step, n, sig.data(), out.data());
   for (std::size_t i = 0; i < n; ++i) {
@@ -185,6 +186,18 @@ TEST(PointSigma, TheWarpGivesEachPointItsSigmaAndTheRowsKeepItsBytes) {
     ASSERT_NEAR(v, s.v, 1e-6) << i;
     EXPECT_GT(h, 0.02F);
   }
+  // The node's way: the rows widened first (room for the sigmas, NaN), the sigmas written into
+  // them by the warp: the same bytes.
+  std::vector<std::uint8_t> rows(out.size(), 0);
+  widenPoints(in.data(), step, n, rows.data());
+  float room[2];
+  std::memcpy(room, rows.data() + step, sizeof(room));
+  EXPECT_TRUE(std::isnan(room[0]) && std::isnan(room[1]));
+  XyzLayout wide = l;
+  wide.point_step = step + kPointSigmaBytes;
+  warpPoints(rows.data(), wide, *sheet, 2, "map", neverCancelled(),
+             {&field, rows.data() + step, wide.point_step});
+  EXPECT_EQ(rows, out);
   const auto fields = withSigmaFields({pointField("x", 0, 7)}, step, "map.pcd");
   ASSERT_EQ(fields.size(), 3u);
   EXPECT_EQ(fields[1].name, "sigma_h");

@@ -125,4 +125,10 @@ constexpr std::size_t kPointSigmaBytes = 8;
 void appendPointSigmas(const std::uint8_t* data, std::size_t point_step, std::size_t n,
                        const float* sigmas, std::uint8_t* out);
 
+/// Copies the n points of `data` (rows of `point_step` bytes) into `out`, each followed by room
+/// for its sigmas, NaN until a warp writes them there (SigmaSink into the rows): rows of
+/// point_step + kPointSigmaBytes.
+void widenPoints(const std::uint8_t* data, std::size_t point_step, std::size_t n,
+                 std::uint8_t* out);
+
 }  // namespace flexcloud

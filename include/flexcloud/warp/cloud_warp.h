@@ -25,9 +25,12 @@ struct XyzLayout {
 class PointSigmaField;
 
 /// Where the warp writes each point's sigmas (point_sigma.h): nothing where field is null.
+/// Point i's sigma_h and sigma_v go to out + i * stride, float32 each: two floats a point of
+/// their own, or into each point's row (out: the first row's sigma_h, stride: the row's bytes).
 struct SigmaSink {
   const PointSigmaField* field = nullptr;
-  float* out = nullptr;
+  std::uint8_t* out = nullptr;
+  std::size_t stride = 2 * sizeof(float);
 };
 
 struct WarpStats {

@@ -154,4 +154,15 @@ void appendPointSigmas(const std::uint8_t* data, std::size_t point_step, std::si
   }
 }
 
+void widenPoints(const std::uint8_t* data, std::size_t point_step, std::size_t n,
+                 std::uint8_t* out) {
+  const float none[2] = {std::numeric_limits<float>::quiet_NaN(),
+                         std::numeric_limits<float>::quiet_NaN()};
+  const std::size_t wide = point_step + kPointSigmaBytes;
+  for (std::size_t i = 0; i < n; ++i) {
+    std::memcpy(out + i * wide, data + i * point_step, point_step);
+    std::memcpy(out + i * wide + point_step, none, kPointSigmaBytes);
+  }
+}
+
 }  // namespace flexcloud

@@ -282,7 +282,7 @@ class RangeWarper {
     ++s_.points;
     if (!p.allFinite()) {
       ++s_.non_finite;
-      if (sigmas_.field != nullptr) sigmas_.out[2 * i] = sigmas_.out[2 * i + 1] = kNaNf;
+      if (sigmas_.field != nullptr) writeSigma(i, {kNaNf, kNaNf});
       return;
     }
     RubberSheet::Location loc{last_, false};
@@ -306,11 +306,13 @@ class RangeWarper {
     }
     const Eigen::Vector3d q = RubberSheet::apply(sheet_.affineAt(loc), p);
     xyz_.set(pt, q);
-    if (sigmas_.field != nullptr) {
-      const PointSigma s = sigmas_.field->at(q, loc.outside ? -1 : loc.tet);
-      sigmas_.out[2 * i] = s.h;
-      sigmas_.out[2 * i + 1] = s.v;
-    }
+    if (sigmas_.field != nullptr) writeSigma(i, sigmas_.field->at(q, loc.outside ? -1 : loc.tet));
+  }
+
+  void writeSigma(std::size_t i, const PointSigma& s) {
+    std::uint8_t* at = sigmas_.out + i * sigmas_.stride;
+    std::memcpy(at, &s.h, sizeof(float));
+    std::memcpy(at + sizeof(float), &s.v, sizeof(float));
   }
 
   /// The visibility walk from the last tetrahedron, which p lies beyond `face` (or on a face:
