@@ -380,8 +380,8 @@ void warnRejectedStretches(const FusionResult& f, bool given, const std::string&
 namespace {
 
 /// The clock's warnings: an offset the profiles could not tell from 0 but loosely, or not at
-/// all, or one told only loosely. Profiles that put it within 15 ms of 0 confirm the stamps as
-/// given: nothing to warn of (report.json's clock says so).
+/// all, or not from a SLAM's own lag, or one told only loosely. Profiles that put it within
+/// 15 ms of 0 confirm the stamps as given: nothing to warn of (report.json's clock says so).
 void clockWarnings(const FusionResult& f, std::vector<std::string>& out) {
   constexpr double kLoose = 0.010;     // s: a looser 1-sigma is worth a word
   constexpr double kConfirms = 0.015;  // s: an offset within its noise of 0 at this 1-sigma
@@ -389,7 +389,7 @@ void clockWarnings(const FusionResult& f, std::vector<std::string>& out) {
   std::ostringstream s;
   s.setf(std::ios::fixed);
   s.precision(1);
-  if (!f.time_offset_estimated && !c.reason.empty() && !(c.sigma <= kConfirms)) {
+  if (!f.time_offset_estimated && !c.reason.empty() && (!(c.sigma <= kConfirms) || c.within_lag)) {
     s << "clock: ";
     if (std::isfinite(c.sigma)) {
       s << "the speed and heading profiles put the GNSS " << 1e3 * c.offset << " +- "
@@ -675,7 +675,8 @@ namespace {
 
 /// Without the fusion, the clock offset the speed profiles show (clock_offset.h), from the
 /// fixes a control point may come from: applied on top of gnss_time_offset where they show one
-/// beyond kSignificant sigmas of zero (max_time_offset 0: none asked for). Nothing refines it,
+/// beyond kSignificant sigmas of zero and of a SLAM's own lag (beyondSlamLag; max_time_offset
+/// 0: none asked for). Nothing refines it,
 /// and the stamps as given are the better guess for an offset within the noise: monza, whose
 /// true offset is 0, every 4th fix held out: -0.0032 +- 0.0029 s, applied MAE 0.220 -> 0.228 m.
 void estimateClockWithoutFusion(const Params& params, GeoreferenceResult& r) {
@@ -685,7 +686,7 @@ void estimateClockWithoutFusion(const Params& params, GeoreferenceResult& r) {
   r.speed_clock =
       estimateClockOffset(r.poses, controlPointFixes(params, r), params.max_time_offset);
   const ClockOffsetEstimate& c = *r.speed_clock;
-  if (!c.observable || !(std::abs(c.offset) > kSignificant * c.sigma)) return;
+  if (!c.observable || !beyondSlamLag(c.offset, c.sigma, kSignificant)) return;
   r.clock_offset += c.offset;
   r.clock_offset_sigma = c.sigma;
   matchGnssAt(c.offset, params, r);

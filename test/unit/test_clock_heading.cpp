@@ -124,5 +124,27 @@ TEST(ClockCombined, TheSpeedAloneIsEnoughTheHeadingAloneIsNot) {
   EXPECT_EQ(neither.reason, "neither the speed nor the heading varies enough to show it");
 }
 
+// KITTI 03's LiDAR odometry, whose true offset is 0: its speed lags by 22.6 +- 6.7 ms, its
+// heading by 28 +- 29. Told from 0, not from a SLAM's own lag: the stamps as given stand. The
+// same profiles at 30 ms and 4 ms sigmas are a clock.
+TEST(ClockCombined, AnOffsetNoLargerThanASlamsOwnLagIsNotApplied) {
+  const ClockEstimate c = combineClock(profile(0.0226, 0.0067), profile(0.028, 0.029));
+  EXPECT_GT(std::abs(c.offset), kClockSignificant * c.sigma);  // beyond its noise
+  EXPECT_FALSE(c.observable);
+  EXPECT_TRUE(c.within_lag);
+  EXPECT_EQ(c.reason,
+            "no more than a SLAM's own lag can show in its speed and heading (30 ms at this "
+            "sigma)");
+  const ClockEstimate clock = combineClock(profile(0.030, 0.004), profile(0.030, 0.004));
+  EXPECT_TRUE(clock.observable);
+  EXPECT_FALSE(clock.within_lag);
+  EXPECT_TRUE(clock.reason.empty());
+  // The bound: k times the sigma and the lag together.
+  EXPECT_TRUE(beyondSlamLag(0.0251, 0.0, 2.0));
+  EXPECT_FALSE(beyondSlamLag(0.0249, 0.0, 2.0));
+  EXPECT_FALSE(beyondSlamLag(-0.030, 0.01, 2.0));  // 2 * hypot(10, 12.5) = 32 ms
+  EXPECT_TRUE(beyondSlamLag(-0.033, 0.01, 2.0));
+}
+
 }  // namespace
 }  // namespace flexcloud

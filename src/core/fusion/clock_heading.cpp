@@ -2,6 +2,7 @@
 // (clock_offset.h).
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "flexcloud/fusion/clock_offset.h"
@@ -198,6 +199,10 @@ ClockOffsetEstimate estimateHeadingOffset(const Trajectory& poses, const Eigen::
   return out;
 }
 
+bool beyondSlamLag(double offset, double sigma, double k) {
+  return std::abs(offset) > k * std::hypot(sigma, kSlamLag);
+}
+
 ClockEstimate combineClock(const ClockOffsetEstimate& speed, const ClockOffsetEstimate& heading) {
   ClockEstimate out;
   out.speed = speed;
@@ -226,8 +231,17 @@ ClockEstimate combineClock(const ClockOffsetEstimate& speed, const ClockOffsetEs
   }
   out.offset = offset;
   out.sigma = std::hypot(sigma, kClockSystematic);
-  out.observable = std::abs(offset) > kClockSignificant * out.sigma;
-  if (!out.observable) out.reason = "within its noise of 0";
+  out.observable = beyondSlamLag(offset, out.sigma, kClockSignificant);
+  if (!(std::abs(offset) > kClockSignificant * out.sigma)) {
+    out.reason = "within its noise of 0";
+  } else if (!out.observable) {
+    out.within_lag = true;
+    char bound[32];
+    std::snprintf(bound, sizeof(bound), "%.0f",
+                  1e3 * kClockSignificant * std::hypot(out.sigma, kSlamLag));
+    out.reason = std::string("no more than a SLAM's own lag can show in its speed and heading (") +
+                 bound + " ms at this sigma)";
+  }
   return out;
 }
 
