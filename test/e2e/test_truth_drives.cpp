@@ -155,11 +155,13 @@ TEST(TruthDrives, AKnownClockOffsetIsFoundOrHonestlyNot) {
 
 // The pose sigmas against the truth: the share of poses within the 95 % circle (2.45 sigma)
 // and the vertical 95 % (1.96 sigma), and the median sigma at most twice the RMSE. RTK: 85-99 %
-// both ways on all nine. Urban: at least 85 % both ways (five drives above 99 % horizontally,
-// two vertically: more cautious than the 95 % aimed at).
+// both ways on all nine. Urban: at least 85 % both ways, and at most three drives above 99 %
+// horizontally (05, 06, 07: more cautious than the 95 % aimed at; six before the fixes' own
+// noise was taken out of their local mean).
 TEST(TruthDrives, PoseSigmasCoverTheErrorsAgainstTheTruth) {
   const std::vector<std::string> dirs = drives();
   SKIP_WITHOUT_DRIVES(dirs);
+  std::size_t cautious = 0;  // urban drives above 99 % horizontally
   for (const auto& dir : dirs) {
     for (const std::string kind : {"rtk", "urban"}) {
       if (!std::filesystem::exists(dir + "/gnss_" + kind + ".txt")) continue;
@@ -178,10 +180,12 @@ TEST(TruthDrives, PoseSigmasCoverTheErrorsAgainstTheTruth) {
         EXPECT_LE(h, 0.99) << d.name;
         EXPECT_LE(v, 0.99) << d.name;
       }
+      cautious += !rtk && h > 0.99;
       EXPECT_LE(r.sigma.median_h, 2.0 * s.rmse) << d.name;
       EXPECT_GT(r.sigma.median_h, 0.0) << d.name;
     }
   }
+  EXPECT_LE(cautious, 3u);
 }
 
 }  // namespace

@@ -7,9 +7,9 @@
 // variance says how well the fixes pin the correction down at each pose: least where they are
 // dense, more between sparse ones, growing beyond the last. Added to it: the local mean of the
 // fixes' residuals from the result (what the fixes agree on but the truth may not, as a multipath
-// episode the result followed), what the sheet left of the fused trajectory, and the speed times
-// an estimated clock offset's sigma. The weights
-// are calibrated against the truth of real and simulated drives (doc/ACCURACY.md).
+// episode the result followed; horizontally less what their own noise puts into it), what the
+// sheet left of the fused trajectory, and the speed times an estimated clock offset's sigma. The
+// weights are calibrated against the truth of real and simulated drives (doc/ACCURACY.md).
 
 #include <cstddef>
 #include <vector>
