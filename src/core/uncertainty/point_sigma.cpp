@@ -76,11 +76,14 @@ PointSigmaField::PointSigmaField(const Trajectory& result, const PoseSigmas& sig
   sweep(true);
   sweep(false);
   const auto f = [](double v) { return static_cast<float>(v); };
-  scatter_h2_ = f(model.scatter_h * model.scatter_h);
-  scatter_v2_ = f(model.scatter_v * model.scatter_v);
   heading2_ = f(model.heading * model.heading);
   tilt2_ = f(model.tilt * model.tilt);
   reach2_ = f(model.strain_reach * model.strain_reach);
+  const auto terms = [](const TetStrain& s) {
+    return TetTerms{2.0F * s.ratio * s.ratio, s.change * s.change};
+  };
+  tet_terms_.push_back(terms(strain_.back()));
+  for (std::size_t t = 0; t + 1 < strain_.size(); ++t) tet_terms_.push_back(terms(strain_[t]));
   // Without the poses' sigmas nothing is known: every point's sigma is infinite.
   const bool known = sigmas.h.size() == result.size() && sigmas.v.size() == result.size();
   const double inf = std::numeric_limits<double>::infinity();
@@ -89,7 +92,8 @@ PointSigmaField::PointSigmaField(const Trajectory& result, const PoseSigmas& sig
     const auto i = static_cast<std::size_t>(nearest_[c]);
     const Eigen::Vector3d q = positions_[i] - origin_;
     const double h = known ? sigmas.h[i] : inf, v = known ? sigmas.v[i] : inf;
-    cells_[c] = {f(q.x()), f(q.y()), f(q.z()), f(h * h), f(v * v)};
+    cells_[c] = {f(q.x()), f(q.y()), f(q.z()), f(h * h + model.scatter_h * model.scatter_h),
+                 f(v * v + model.scatter_v * model.scatter_v)};
   }
 }
 
@@ -143,6 +147,29 @@ void PointSigmaField::sweep(bool forward) {
 std::size_t PointSigmaField::nearestPose(const Eigen::Vector3d& enu) const {
   return static_cast<std::size_t>(nearest_[cellOf(static_cast<float>(enu.x() - origin_.x()),
                                                   static_cast<float>(enu.y() - origin_.y()))]);
+}
+
+void PointSigmaBatch::flush() {
+  // Three passes: the lookups; the arithmetic alone, in vector lanes (this file is built
+  // without errno and CGAL's rounding mode, either of which keeps it scalar); the writes.
+  const PointSigmaField& field = *sink_.field;
+  const std::size_t n = n_;  // kept apart: the writes below could alias the member
+  float var_h[kSize], var_v[kSize], dh2[kSize], dz2[kSize], bend2[kSize], cap2[kSize];
+  for (std::size_t k = 0; k < n; ++k) {
+    const PointSigmaField::Terms t = field.terms(place_[k], tet_[k]);
+    var_h[k] = t.var_h, var_v[k] = t.var_v, dh2[k] = t.dh2, dz2[k] = t.dz2;
+    bend2[k] = t.bend2, cap2[k] = t.cap2;
+  }
+  float h[kSize], v[kSize];
+  for (std::size_t k = 0; k < n; ++k) {
+    field.combine(var_h[k], var_v[k], dh2[k], dz2[k], bend2[k], cap2[k], h[k], v[k]);
+  }
+  for (std::size_t k = 0; k < n; ++k) {
+    std::uint8_t* at = sink_.out + index_[k] * sink_.stride;
+    std::memcpy(at, &h[k], sizeof(float));
+    std::memcpy(at + sizeof(float), &v[k], sizeof(float));
+  }
+  n_ = 0;
 }
 
 void appendPointSigmas(const std::uint8_t* data, std::size_t point_step, std::size_t n,

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <memory>
 #include <utility>
 #include <vector>
 
@@ -202,6 +203,7 @@ class RangeWarper {
               const SigmaSink& sigmas)
       : data_(data),
         sigmas_(sigmas),
+        batch_(sigmas.field != nullptr ? std::make_unique<PointSigmaBatch>(sigmas) : nullptr),
         step_(step),
         xyz_(xyz),
         sheet_(sheet),
@@ -231,6 +233,7 @@ class RangeWarper {
         warpInFileOrder(from, e);
       }
     }
+    if (batch_) batch_->flush();
   }
 
  private:
@@ -306,7 +309,7 @@ class RangeWarper {
     }
     const Eigen::Vector3d q = RubberSheet::apply(sheet_.affineAt(loc), p);
     xyz_.set(pt, q);
-    if (sigmas_.field != nullptr) writeSigma(i, sigmas_.field->at(q, loc.outside ? -1 : loc.tet));
+    if (batch_) batch_->add(q, loc.outside ? -1 : loc.tet, i);
   }
 
   void writeSigma(std::size_t i, const PointSigma& s) {
@@ -335,6 +338,7 @@ class RangeWarper {
 
   std::uint8_t* data_;
   SigmaSink sigmas_;
+  std::unique_ptr<PointSigmaBatch> batch_;  // with sigmas asked for; flushed when it goes
   std::size_t step_;
   const Xyz& xyz_;
   const RubberSheet& sheet_;
