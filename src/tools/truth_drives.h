@@ -35,6 +35,10 @@ struct TruthScore {
 };
 TruthScore scoreAgainstTruth(const TruthDrive& d, const GeoreferenceResult& r);
 
+/// The published method on these drives: GNSS control points at the poses' stamps as given,
+/// no refinement, no fusion (0.03 m for fixes without a std-dev).
+Params publishedMethod(int control_points = Params().control_points);
+
 /// The defaults, `fusion: false` and the published method on each drive and GNSS kind in
 /// `dirs` (the kinds a folder lacks are left out), one markdown row each; `sets` are applied
 /// to every method.
