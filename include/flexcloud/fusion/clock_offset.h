@@ -45,8 +45,9 @@ constexpr double kClockSignificant = 2.0;
 /// s: how far a real SLAM's own lag may move both profiles where the clocks agree (KITTI 03:
 /// 23 ms in the speed, 28 in the heading, 17 in the fit of positions; its true offset is 0). An
 /// offset is applied only beyond kClockSignificant times its sigma and this together (at least
-/// 27 ms): below, the profiles cannot tell a clock from such a lag, and the stamps as given
-/// were the closer to the truth (03 RTK: 0.025 against 0.129 m with the 17 ms applied).
+/// 27 ms with kClockSystematic in the sigma): below, the profiles cannot tell a clock from such a
+/// lag, and the stamps as given were the closer to the truth (03 RTK: 0.025 against 0.129 m with
+/// the 17 ms applied).
 constexpr double kSlamLag = 0.0125;
 
 /// Whether an offset with this 1-sigma is told from a SLAM's own lag: beyond `k` times its
