@@ -471,6 +471,8 @@ sensor_msgs::PointCloud2ConstPtr GeoreferenceNode::warpMap(const NodeParams& par
   const auto t0 = std::chrono::steady_clock::now();
   const std::string name = params.map_file.empty() ? nh_.resolveName("map") : params.map_file;
   info.input = name;
+  // A map message whose data does not hold its points is named before any copy of it.
+  XyzLayout layout = ros_conv::xyzLayout(*map, name);
   std::optional<PointSigmaField> field;
   SigmaSink sink;
   sensor_msgs::PointCloud2Ptr warped;
@@ -479,11 +481,12 @@ sensor_msgs::PointCloud2ConstPtr GeoreferenceNode::warpMap(const NodeParams& par
         widenedForSigmas(*map, withSigmaFields(ros_conv::pclFields(*map), map->point_step, name));
     sink = {&field.emplace(r.rubbersheet, r.sigma, *r.sheet, pointSigmaModel(params.core)),
             warped->data.data() + map->point_step, warped->point_step};
+    layout.point_step = warped->point_step;
   } else {
     warped.reset(new sensor_msgs::PointCloud2(*map));
   }
-  info.warp = warpPoints(warped->data.data(), ros_conv::xyzLayout(*warped, name), *r.sheet,
-                         params.core.threads, name, cancel, sink);
+  info.warp =
+      warpPoints(warped->data.data(), layout, *r.sheet, params.core.threads, name, cancel, sink);
   info.warp_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   warped->header.frame_id = params.enu_frame;
   warped->header.stamp = ros::Time::now();

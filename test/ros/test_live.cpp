@@ -463,6 +463,28 @@ TEST_F(Live, LoadMapReplacesTheMapToWarp) {
   EXPECT_EQ(callWhenComplete().map_points, drive_->map.slam.size());
 }
 
+/// A map message whose data holds fewer bytes than its points need (point_sigma is on in
+/// live.test: the map is widened for the sigmas): the call fails naming the topic and the sizes,
+/// and the node goes on with the next good map.
+TEST_F(Live, AMapMessageShortOfItsPointsIsNamed) {
+  publishDrive();
+  ASSERT_TRUE(callWhenComplete().success);
+  Cloud cut;
+  ros_conv::toCloudMsg(sim::slamCloud(drive_->map), "map", cut);
+  const std::size_t need = cut.data.size();
+  cut.data.resize(need / 2);
+  map_pub_.publish(cut);
+  const auto r = callUntil([](const flexcloud::Georeference::Response& a) { return !a.success; });
+  EXPECT_FALSE(r.success);
+  EXPECT_NE(r.message.find("/map: data holds " + std::to_string(need / 2) + " bytes, but " +
+                           std::to_string(drive_->map.slam.size()) + " points of " +
+                           std::to_string(cut.point_step) + " bytes need " + std::to_string(need)),
+            std::string::npos)
+      << r.message;
+  publishDrive();
+  EXPECT_TRUE(callWhenComplete().success);
+}
+
 /// A quarter of the drive published with the whole map (a bag still playing): the call fails
 /// saying how much of the map the poses cover; accepted (accept_degraded), the result is
 /// mostly outside the GNSS coverage and says so (11): the response, ~result and the log carry

@@ -82,9 +82,8 @@ class PointSigmaField {
     const float dx = p.x() - c.x, dy = p.y() - c.y, dz = p.z() - c.z;
     // Squares bounded (a stray point 1e30 m away): every term stays a number, never inf * 0.
     constexpr float kFar2 = 1e30F;
-    const TetTerms& s = tet_terms_[tet >= 0 && static_cast<std::size_t>(tet) < strain_.size() - 1
-                                       ? static_cast<std::size_t>(tet) + 1
-                                       : 0];
+    const std::size_t k = static_cast<std::size_t>(tet) + 1;  // 0: beyond the hull
+    const TetTerms& s = tet_terms_[tet >= 0 && k < tet_terms_.size() ? k : 0];
     return {c.var_h, c.var_v, std::min(dx * dx + dy * dy, kFar2), std::min(dz * dz, kFar2),
             s.bend2, s.cap2};
   }

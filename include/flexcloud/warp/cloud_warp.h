@@ -45,7 +45,7 @@ struct WarpStats {
 /// Warps the xyz of every point of a raw buffer of the given layout with the rubber sheet (map
 /// frame -> ENU), on `threads` threads (0: all cores). Throws Error("NAME: warp: cancelled")
 /// once `cancel` is cancelled (the points are then partly warped). With `sigmas` set, each
-/// point's sigma_h and sigma_v go into sigmas.out (two floats a point, NaN for a NaN point).
+/// point's sigma_h and sigma_v go where it says (NaN for a NaN point).
 WarpStats warpPoints(std::uint8_t* data, const XyzLayout& layout, const RubberSheet& sheet,
                      int threads, const std::string& name = "map",
                      const CancelToken& cancel = neverCancelled(), const SigmaSink& sigmas = {});
