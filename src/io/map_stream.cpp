@@ -145,20 +145,24 @@ class MapJob {
     info_.grid_seconds += since(t1);
   }
 
-  /// Warps points [first, first + n) held at `data`, comparing with the truth before and after;
-  /// with point sigmas, their sigmas go into sigmas(slot).
-  void warp(std::uint8_t* data, std::size_t first, std::size_t n, std::size_t slot) {
+  /// The bytes of a point as the warp holds it: the file's row, with point sigmas widened by
+  /// room for them (widenPoints), which the warp fills.
+  std::size_t rowStep() const {
+    return header().point_step + (options_.point_sigma ? kPointSigmaBytes : 0);
+  }
+
+  /// Warps points [first, first + n) held at `data` (rows of rowStep()), comparing with the
+  /// truth before and after; with point sigmas, the warp writes them into the rows.
+  void warp(std::uint8_t* data, std::size_t first, std::size_t n) {
     options_.cancel->check(in_ + ": warp");
-    const std::uint8_t* t = truth_ ? truth_->chunk(first, n) : nullptr;
-    if (t) compare(data, t, n, options_.T_enu_map, aligned_);
-    const auto t0 = Clock::now();
     XyzLayout part = layout_;
+    part.point_step = rowStep();
     part.points = n;
+    const std::uint8_t* t = truth_ ? truth_->chunk(first, n) : nullptr;
+    if (t) compare(data, part, t, n, options_.T_enu_map, aligned_);
+    const auto t0 = Clock::now();
     SigmaSink sink;
-    if (options_.point_sigma) {
-      sigmas_[slot].resize(2 * n);
-      sink = {options_.point_sigma, reinterpret_cast<std::uint8_t*>(sigmas_[slot].data())};
-    }
+    if (options_.point_sigma) sink = {options_.point_sigma, data + header().point_step, rowStep()};
     const WarpStats s =
         warpPoints(data, part, sheet_, options_.threads, in_, *options_.cancel, sink);
     info_.warp_seconds += since(t0);
@@ -166,11 +170,8 @@ class MapJob {
     info_.warp.outside += s.outside;
     info_.warp.non_finite += s.non_finite;
     info_.warp.sample.insert(info_.warp.sample.end(), s.sample.begin(), s.sample.end());
-    if (t) compare(data, t, n, Eigen::Isometry3d::Identity(), warped_);
+    if (t) compare(data, part, t, n, Eigen::Isometry3d::Identity(), warped_);
   }
-
-  /// The sigmas of the chunk warped from `slot` (warp()), two floats a point.
-  const float* sigmas(std::size_t slot) const { return sigmas_[slot].data(); }
 
   void finish() {
     info_.input = in_;
@@ -185,10 +186,10 @@ class MapJob {
   std::size_t chunk() const { return std::max<std::size_t>(1, options_.chunk_points); }
 
  private:
-  void compare(const std::uint8_t* pa, const std::uint8_t* pb, std::size_t n,
+  void compare(const std::uint8_t* pa, const XyzLayout& la, const std::uint8_t* pb, std::size_t n,
                const Eigen::Isometry3d& f, ErrorAccumulator& acc) const {
     comparePoints(
-        pa, layout_, pb, truth_->layout(), n,
+        pa, la, pb, truth_->layout(), n,
         [&f](const Eigen::Vector3d& p) { return Eigen::Vector3d(f * p); }, acc);
   }
 
@@ -201,7 +202,6 @@ class MapJob {
   MapInfo& info_;
   std::optional<TruthSource> truth_;
   ErrorAccumulator aligned_, warped_;
-  std::array<std::vector<float>, 3> sigmas_;
 };
 
 /// Opens the output's temporary file and starts the body's copy into it (startCopy); false
@@ -215,9 +215,8 @@ bool startBody(MapJob& job, const std::string& in, const AtomicFile& file, const
 
 /// Reads the points from `first` on (at most a chunk) into buf; returns how many, 0 at the end.
 using ChunkRead = std::function<std::size_t(std::uint8_t* buf, std::size_t first)>;
-/// Writes the n warped points of buf (buffer `slot` of three), which begin at point `first`.
-using ChunkWrite = std::function<void(const std::uint8_t* buf, std::size_t first, std::size_t n,
-                                      std::size_t slot)>;
+/// Writes the n warped points of buf, which begin at point `first`.
+using ChunkWrite = std::function<void(const std::uint8_t* buf, std::size_t first, std::size_t n)>;
 
 /// Warps a map chunk by chunk through three buffers: chunk i+1 is read and chunk i-1 written
 /// while chunk i is warped, so the copies in and out of the buffers keep no core waiting.
@@ -225,7 +224,7 @@ void warpChunks(MapJob& job, const ChunkRead& read, const ChunkWrite& write) {
   const PcdHeader& h = job.header();
   std::array<std::vector<std::uint8_t>, 3> buffers;
   for (auto& b : buffers)
-    b.resize(std::min(job.chunk(), std::max<std::size_t>(1, h.points)) * h.point_step);
+    b.resize(std::min(job.chunk(), std::max<std::size_t>(1, h.points)) * job.rowStep());
   auto readInto = [&](std::size_t slot, std::size_t first) {
     const auto t0 = Clock::now();
     const std::size_t n = read(buffers[slot].data(), first);
@@ -241,11 +240,11 @@ void warpChunks(MapJob& job, const ChunkRead& read, const ChunkWrite& write) {
     std::uint8_t* data = buffers[i % 3].data();
     // Chunk i+1 reuses the buffer of chunk i-2, whose write ended before chunk i-1's began.
     next = std::async(std::launch::async, readInto, (i + 1) % 3, first + n);
-    job.warp(data, first, n, i % 3);
+    job.warp(data, first, n);
     if (writing.valid()) writing.get();
-    writing = std::async(std::launch::async, [&write, &job, data, first, n, i] {
+    writing = std::async(std::launch::async, [&write, &job, data, first, n] {
       const auto t0 = Clock::now();
-      write(data, first, n, i % 3);
+      write(data, first, n);
       job.info().write_seconds += since(t0);
     });
     first += n;
@@ -280,7 +279,7 @@ bool warpInPlace(MapJob& job, const std::string& in, const std::string& out, Map
         readAt(fd, buf, n * h.point_step, offset(first), out);
         return n;
       },
-      [&](const std::uint8_t* buf, std::size_t first, std::size_t n, std::size_t) {
+      [&](const std::uint8_t* buf, std::size_t first, std::size_t n) {
         writeAt(fd, buf, n * h.point_step, offset(first), out);
       });
   job.info().read_seconds += body.copier->finish();
@@ -293,23 +292,25 @@ bool warpInPlace(MapJob& job, const std::string& in, const std::string& out, Map
 }
 
 /// The portable way: read and write the files in order, through buffers (with point sigmas,
-/// the points with theirs).
+/// each chunk's rows widened as read, and written with the sigmas the warp put there).
 void warpPipeline(MapJob& job, const std::string& out, bool sigmas) {
   const PcdHeader& h = job.header();
   const auto fields =
       sigmas ? withSigmaFields(job.fields(), h.point_step, job.name()) : job.fields();
   job.prepare();
-  PcdChunkWriter writer(out, fields, h.point_step + (sigmas ? kPointSigmaBytes : 0),
-                        static_cast<std::uint32_t>(h.width), static_cast<std::uint32_t>(h.height));
-  std::vector<std::uint8_t> wide;  // a chunk's points with their sigmas, as written
+  PcdChunkWriter writer(out, fields, job.rowStep(), static_cast<std::uint32_t>(h.width),
+                        static_cast<std::uint32_t>(h.height));
+  std::vector<std::uint8_t> narrow;  // a chunk as the file holds it (one read at a time)
   warpChunks(
-      job, [&](std::uint8_t* buf, std::size_t) { return job.reader().read(buf, job.chunk()); },
-      [&](const std::uint8_t* buf, std::size_t, std::size_t n, std::size_t slot) {
-        if (!sigmas) return writer.write(buf, n);
-        wide.resize(n * (h.point_step + kPointSigmaBytes));
-        appendPointSigmas(buf, h.point_step, n, job.sigmas(slot), wide.data());
-        writer.write(wide.data(), n);
-      });
+      job,
+      [&](std::uint8_t* buf, std::size_t) {
+        if (!sigmas) return job.reader().read(buf, job.chunk());
+        narrow.resize(std::min(job.chunk(), std::max<std::size_t>(1, h.points)) * h.point_step);
+        const std::size_t n = job.reader().read(narrow.data(), job.chunk());
+        widenPoints(narrow.data(), h.point_step, n, buf);
+        return n;
+      },
+      [&](const std::uint8_t* buf, std::size_t, std::size_t n) { writer.write(buf, n); });
   const auto t0 = Clock::now();
   writer.commit();
   job.info().write_seconds += since(t0);

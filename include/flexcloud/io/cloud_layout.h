@@ -22,7 +22,7 @@ XyzLayout xyzLayout(const std::vector<pcl::PCLPointField>& fields, std::size_t p
 XyzLayout xyzLayout(const pcl::PCLPointCloud2& cloud, const std::string& name);
 
 /// `fields` of points of `point_step` bytes with sigma_h and sigma_v (FLOAT32, m) appended after
-/// them (appendPointSigmas); throws Error naming `name` where they hold either already.
+/// them (widenPoints); throws Error naming `name` where they hold either already.
 std::vector<pcl::PCLPointField> withSigmaFields(std::vector<pcl::PCLPointField> fields,
                                                 std::size_t point_step, const std::string& name);
 

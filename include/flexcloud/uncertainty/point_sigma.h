@@ -80,12 +80,8 @@ class PointSigmaField {
   Terms terms(const Eigen::Vector3f& p, int tet) const {
     const CellPose& c = cells_[cellOf(p.x(), p.y())];
     const float dx = p.x() - c.x, dy = p.y() - c.y, dz = p.z() - c.z;
-    // Squares bounded (a stray point 1e30 m away): every term stays a number, never inf * 0.
-    constexpr float kFar2 = 1e30F;
-    const std::size_t k = static_cast<std::size_t>(tet) + 1;  // 0: beyond the hull
-    const TetTerms& s = tet_terms_[tet >= 0 && k < tet_terms_.size() ? k : 0];
-    return {c.var_h, c.var_v, std::min(dx * dx + dy * dy, kFar2), std::min(dz * dz, kFar2),
-            s.bend2, s.cap2};
+    const TetTerms& s = tet_terms_[termsIndex(tet)];
+    return {c.var_h, c.var_v, bounded(dx * dx + dy * dy), bounded(dz * dz), s.bend2, s.cap2};
   }
   /// A point's sigmas from its terms: the arithmetic alone, which PointSigmaBatch runs for many
   /// points at once.
@@ -95,6 +91,13 @@ class PointSigmaField {
     h = std::sqrt(var_h + heading2_ * dh2 + tilt2_ * dz2 + bent2);
     v = std::sqrt(var_v + tilt2_ * dh2 + bent2);
   }
+  /// The most points sigmas() takes at once.
+  static constexpr std::size_t kBatch = 256;
+  /// The sigmas of n <= kBatch points at (x, y, z) about the grid's origin (local()), warped by
+  /// tetrahedra `tet`, into h and v: as at() gives them, with the arithmetic in vector lanes
+  /// (only the lookups go point by point).
+  void sigmas(std::size_t n, const float* x, const float* y, const float* z, const int* tet,
+              float* __restrict h, float* __restrict v) const;
   /// How far tetrahedron `tet` stretches the map; beyond the hull (-1), how far the outside
   /// transform is from a rotation.
   const TetStrain& strain(int tet) const {
@@ -116,11 +119,28 @@ class PointSigmaField {
   double planDistance2(std::size_t cell, std::int32_t pose) const;
   /// The cell of a place (x, y about the grid's origin); one at the border for a place beyond
   /// it, however far (clamped before the conversion to an integer).
+  /// Written as selects, which compile to min/max instructions (std::clamp took branches, which
+  /// a map's scattered points mispredict); a NaN place goes to cell 0.
   std::size_t cellOf(float x, float y) const {
-    const float fx = std::clamp(x * inv_cell_, 0.0F, static_cast<float>(nx_ - 1));
-    const float fy = std::clamp(y * inv_cell_, 0.0F, static_cast<float>(ny_ - 1));
+    const float fx = within(x * inv_cell_, last_x_), fy = within(y * inv_cell_, last_y_);
     // Through int: a float's conversion to an unsigned 64-bit integer takes a branch.
     return static_cast<std::size_t>(static_cast<int>(fy) * nx_ + static_cast<int>(fx));
+  }
+  /// v within [0, hi]; a NaN to 0.
+  static float within(float v, float hi) {
+    const float lo = v > 0.0F ? v : 0.0F;
+    return lo < hi ? lo : hi;
+  }
+  /// A square bounded (a stray point 1e30 m away): every term stays a number, never inf * 0.
+  static float bounded(float v2) {
+    constexpr float kFar2 = 1e30F;
+    return v2 < kFar2 ? v2 : kFar2;
+  }
+  /// Where tetrahedron `tet`'s terms are kept: at tet + 1, and 0 beyond the hull (-1) or for a
+  /// tetrahedron the sheet does not have.
+  std::size_t termsIndex(int tet) const {
+    const auto k = static_cast<std::size_t>(static_cast<std::int64_t>(tet) + 1);
+    return k < tet_terms_.size() ? k : 0;
   }
 
   std::vector<Eigen::Vector3d> positions_;
@@ -136,14 +156,15 @@ class PointSigmaField {
   double cell_ = 1.0;  ///< m
   float inv_cell_ = 1.0F;
   int nx_ = 1, ny_ = 1;
-  std::vector<std::int32_t> nearest_;  ///< per cell, row by row
-  std::vector<CellPose> cells_;        ///< the same, ready for at()
+  float last_x_ = 0.0F, last_y_ = 0.0F;  ///< the last cell's index a side, as floats
+  std::vector<std::int32_t> nearest_;    ///< per cell, row by row
+  std::vector<CellPose> cells_;          ///< the same, ready for at()
 };
 
 /// The sigmas of points warped one at a time, computed a batch at a time: the warp hands each
 /// point's place and tetrahedron over and goes on, and the lookups and square roots of a
 /// batch's points run together, apart from the warp's chain of dependent steps (interleaved
-/// with it, they made the warp 1.4x as slow, here 1.25-1.3x; doc/BENCHMARKS.md).
+/// with it, they made the warp 1.4x as slow, here about 1.2x; doc/BENCHMARKS.md).
 class PointSigmaBatch {
  public:
   /// Writes where `sink` says (its field must be set).
@@ -155,7 +176,8 @@ class PointSigmaBatch {
   /// Point `index`, now at `enu`, warped by tetrahedron `tet`: its sigmas are written by the
   /// next flush() at the latest.
   void add(const Eigen::Vector3d& enu, int tet, std::size_t index) {
-    place_[n_] = sink_.field->local(enu);
+    const Eigen::Vector3f p = sink_.field->local(enu);
+    x_[n_] = p.x(), y_[n_] = p.y(), z_[n_] = p.z();
     tet_[n_] = tet;
     index_[n_] = index;
     if (++n_ == kSize) flush();
@@ -164,21 +186,16 @@ class PointSigmaBatch {
   void flush();
 
  private:
-  static constexpr std::size_t kSize = 256;
+  static constexpr std::size_t kSize = PointSigmaField::kBatch;
   SigmaSink sink_;
   std::size_t n_ = 0;
-  Eigen::Vector3f place_[kSize];  // about the field's origin
+  float x_[kSize], y_[kSize], z_[kSize];  // about the field's origin
   int tet_[kSize];
   std::size_t index_[kSize];
 };
 
 /// Bytes a point grows by with its sigmas: sigma_h, then sigma_v, float32 each.
 constexpr std::size_t kPointSigmaBytes = 8;
-
-/// Copies the n points of `data` (rows of `point_step` bytes) into `out`, each followed by its
-/// two floats of `sigmas` (as warpPoints wrote them): rows of point_step + kPointSigmaBytes.
-void appendPointSigmas(const std::uint8_t* data, std::size_t point_step, std::size_t n,
-                       const float* sigmas, std::uint8_t* out);
 
 /// Copies the n points of `data` (rows of `point_step` bytes) into `out`, each followed by room
 /// for its sigmas, NaN until a warp writes them there (SigmaSink into the rows): rows of

@@ -71,6 +71,8 @@ PointSigmaField::PointSigmaField(const Trajectory& result, const PoseSigmas& sig
   inv_cell_ = static_cast<float>(1.0 / cell_);
   nx_ = std::max(1, static_cast<int>(std::ceil(extent.x() / cell_)));
   ny_ = std::max(1, static_cast<int>(std::ceil(extent.y() / cell_)));
+  last_x_ = static_cast<float>(nx_ - 1);
+  last_y_ = static_cast<float>(ny_ - 1);
   nearest_.assign(static_cast<std::size_t>(nx_) * ny_, -1);
   seed();
   sweep(true);
@@ -149,36 +151,39 @@ std::size_t PointSigmaField::nearestPose(const Eigen::Vector3d& enu) const {
                                                   static_cast<float>(enu.y() - origin_.y()))]);
 }
 
+void PointSigmaField::sigmas(std::size_t n, const float* x, const float* y, const float* z,
+                             const int* tet, float* __restrict h, float* __restrict v) const {
+  // The cells and the tetrahedra's entries first, then the lookups with the arithmetic: each
+  // loop in vector lanes, the lookups' loads lane by lane (this file is built without errno
+  // and CGAL's rounding mode, either of which keeps the loops scalar). Split from the
+  // arithmetic into arrays of their own, the lookups ran no faster.
+  n = std::min(n, kBatch);
+  std::int32_t cell[kBatch];
+  for (std::size_t k = 0; k < n; ++k) {
+    const float fx = within(x[k] * inv_cell_, last_x_), fy = within(y[k] * inv_cell_, last_y_);
+    cell[k] = static_cast<std::int32_t>(fy) * nx_ + static_cast<std::int32_t>(fx);
+  }
+  std::uint32_t term[kBatch];
+  for (std::size_t k = 0; k < n; ++k) term[k] = static_cast<std::uint32_t>(termsIndex(tet[k]));
+  for (std::size_t k = 0; k < n; ++k) {
+    const CellPose& c = cells_[static_cast<std::size_t>(cell[k])];
+    const TetTerms& s = tet_terms_[term[k]];
+    const float dx = x[k] - c.x, dy = y[k] - c.y, dz = z[k] - c.z;
+    combine(c.var_h, c.var_v, bounded(dx * dx + dy * dy), bounded(dz * dz), s.bend2, s.cap2, h[k],
+            v[k]);
+  }
+}
+
 void PointSigmaBatch::flush() {
-  // Three passes: the lookups; the arithmetic alone, in vector lanes (this file is built
-  // without errno and CGAL's rounding mode, either of which keeps it scalar); the writes.
-  const PointSigmaField& field = *sink_.field;
-  const std::size_t n = n_;  // kept apart: the writes below could alias the member
-  float var_h[kSize], var_v[kSize], dh2[kSize], dz2[kSize], bend2[kSize], cap2[kSize];
-  for (std::size_t k = 0; k < n; ++k) {
-    const PointSigmaField::Terms t = field.terms(place_[k], tet_[k]);
-    var_h[k] = t.var_h, var_v[k] = t.var_v, dh2[k] = t.dh2, dz2[k] = t.dz2;
-    bend2[k] = t.bend2, cap2[k] = t.cap2;
-  }
   float h[kSize], v[kSize];
-  for (std::size_t k = 0; k < n; ++k) {
-    field.combine(var_h[k], var_v[k], dh2[k], dz2[k], bend2[k], cap2[k], h[k], v[k]);
-  }
+  const std::size_t n = n_;  // kept apart: the writes below could alias the member
+  sink_.field->sigmas(n, x_, y_, z_, tet_, h, v);
   for (std::size_t k = 0; k < n; ++k) {
     std::uint8_t* at = sink_.out + index_[k] * sink_.stride;
     std::memcpy(at, &h[k], sizeof(float));
     std::memcpy(at + sizeof(float), &v[k], sizeof(float));
   }
   n_ = 0;
-}
-
-void appendPointSigmas(const std::uint8_t* data, std::size_t point_step, std::size_t n,
-                       const float* sigmas, std::uint8_t* out) {
-  const std::size_t wide = point_step + kPointSigmaBytes;
-  for (std::size_t i = 0; i < n; ++i) {
-    std::memcpy(out + i * wide, data + i * point_step, point_step);
-    std::memcpy(out + i * wide + point_step, sigmas + 2 * i, kPointSigmaBytes);
-  }
 }
 
 void widenPoints(const std::uint8_t* data, std::size_t point_step, std::size_t n,
