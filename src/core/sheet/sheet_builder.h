@@ -75,10 +75,12 @@ SheetWithBeside buildSheetWithBeside(const ControlPointSelection& cps, const Tra
                                      const std::vector<bool>& steady);
 
 /// buildSheetWithBeside(), then control points added (to `cps`) at the poses the sheet carries
-/// far from their fused pose (beyond 5 cm and ten times the typical deviation: a break, not the
-/// sheet's resolution), the sheet built again, for a few rounds: where the SLAM holds one place
-/// twice, apart (an unclosed loop, a crossing), a pose between its own control points may lie
-/// in a tetrahedron of the other pass, and only a control point of its own keeps it.
+/// far from their fused pose (beyond 5 cm and three times the typical deviation: a break, not
+/// the sheet's resolution), the sheet built again, for a few rounds, more while every sheet so
+/// far has folded (a pose a metre or more off): where the SLAM holds one place twice, apart (an
+/// unclosed loop, a crossing), a pose between its own control points may lie in a tetrahedron
+/// of the other pass, and only a control point of its own keeps it. Returns the sheet of the
+/// round that carried no pose as far off as the others did, with its control points in `cps`.
 /// `targets` and `usable` as for chooseControlPoints().
 SheetWithBeside buildFaithfulSheet(ControlPointSelection& cps, const Trajectory& slam,
                                    const Trajectory& fused,
