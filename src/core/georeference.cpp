@@ -398,6 +398,39 @@ void warnRejectedStretches(const FusionResult& f, bool given, const std::string&
   }
 }
 
+/// The fixes that took part with their horizontal part alone, where at least kHeightFixes did:
+/// how many, the longest run of them among the fixes that took part, and how far their heights
+/// lie from the fused trajectory.
+void warnHeightsLeftOut(const FusionResult& f, std::vector<std::string>& out) {
+  constexpr std::size_t kHeightFixes = 3;  // fewer may be the fixes' own noise
+  if (f.heights_left_out < kHeightFixes) return;
+  std::vector<const FixOutcome*> fixes;
+  for (const auto& o : f.fixes) {
+    if (o.verdict == FixVerdict::kUsed || o.verdict == FixVerdict::kOutlier) fixes.push_back(&o);
+  }
+  std::sort(fixes.begin(), fixes.end(),
+            [](const FixOutcome* a, const FixOutcome* b) { return a->stamp < b->stamp; });
+  double worst = 0.0, begin = 0.0, end = 0.0, run_begin = 0.0;
+  std::size_t longest = 0, run = 0;
+  for (const FixOutcome* o : fixes) {
+    if (!o->height_left_out) {
+      run = 0;
+      continue;
+    }
+    worst = std::max(worst, std::abs(o->error.z()));
+    if (run++ == 0) run_begin = o->stamp;
+    if (run > longest) longest = run, begin = run_begin, end = o->stamp;
+  }
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(1);
+  s << f.heights_left_out << " fixes took part with their horizontal part alone (the longest run "
+    << longest << " from " << begin << " to " << end << " s): they agree with the fused "
+    << "trajectory horizontally and lie up to " << worst << " m from it in height, as where the "
+    << "SLAM's height drifts; the result keeps the SLAM's height there";
+  out.push_back(s.str());
+}
+
 }  // namespace
 
 namespace {
@@ -599,6 +632,7 @@ std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Param
     out.push_back(s.str());
   }
   if (r.fusion) {
+    warnHeightsLeftOut(*r.fusion, out);
     warnRejectedStretches(*r.fusion, true, "", out);
     warnRejectedStretches(
         *r.fusion, false,

@@ -59,6 +59,7 @@ json finiteOrNull(double v) { return std::isfinite(v) ? json(v) : json(nullptr);
 json fusionJson(const FusionResult& f) {
   return {{"keyframes", f.keyframes},
           {"fixes_used", f.used},
+          {"fixes_used_without_height", f.heights_left_out},
           {"fixes_rejected",
            {{"outlier", f.outliers},
             {"above_std_threshold", f.above_threshold},

@@ -58,6 +58,9 @@ struct FixOutcome {
   /// Precise by its std-dev, but its neighbours and it scatter more than that claims: it took no
   /// part in the refinement by precise fixes (precise_follow.h).
   bool rough = false;
+  /// Its height took no part: a code-grade fix that agrees with the fused trajectory
+  /// horizontally (within 3 of its sigmas) and not in height, as where the SLAM's height drifts.
+  bool height_left_out = false;
   FixVerdict verdict = FixVerdict::kUsed;
 };
 
@@ -132,6 +135,7 @@ struct FusionResult {
   } follow;
   std::size_t keyframes = 0;
   std::size_t used = 0;
+  std::size_t heights_left_out = 0;  ///< of those used, those with their horizontal part alone
   std::size_t outliers = 0;
   std::size_t above_threshold = 0;
   std::size_t excluded = 0;

@@ -112,4 +112,15 @@ class GnssCost : public ceres::SizedCostFunction<3, 4, 3, 1, 1> {
   GnssFactor f_;
 };
 
+/// A fix's horizontal part alone (GnssCost's first two rows): for a fix whose height is left
+/// out.
+class GnssLevelCost : public ceres::SizedCostFunction<2, 4, 3, 1, 1> {
+ public:
+  explicit GnssLevelCost(const GnssFactor& f) : whole_(f) {}
+  bool Evaluate(double const* const* x, double* r, double** jacobians) const override;
+
+ private:
+  GnssCost whole_;
+};
+
 }  // namespace flexcloud

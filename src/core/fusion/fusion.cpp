@@ -39,6 +39,7 @@ FusionResult Fusion::run(const Eigen::Isometry3d& T_enu_map) {
   adaptSlamNoise();
   restamp();
   holdClockWhereTheSpeedsDisagree();
+  leaveOutHeights();
   polish();
   // The fit of positions refines the offset within the profiles' sigma; their sigma stands,
   // for what the SLAM's lag puts into both (clock_offset.h).

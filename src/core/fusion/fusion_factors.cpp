@@ -1,5 +1,7 @@
 #include "flexcloud/fusion/fusion_factors.h"
 
+#include <algorithm>
+
 namespace flexcloud {
 namespace {
 
@@ -143,6 +145,23 @@ bool GnssCost::Evaluate(double const* const* x, double* r, double** jacobians) c
   if (jacobians[3] != nullptr) {
     JacobianMap<3, 1> j(jacobians[3]);
     j = k * (rot * f_.velocity);
+  }
+  return true;
+}
+
+bool GnssLevelCost::Evaluate(double const* const* x, double* r, double** jacobians) const {
+  constexpr int kSizes[4] = {4, 3, 1, 1};
+  double whole_r[3];
+  double j0[12], j1[9], j2[3], j3[3];
+  double* whole_j[4] = {j0, j1, j2, j3};
+  if (jacobians != nullptr) {
+    for (int b = 0; b < 4; ++b) whole_j[b] = jacobians[b] != nullptr ? whole_j[b] : nullptr;
+  }
+  if (!whole_.Evaluate(x, whole_r, jacobians != nullptr ? whole_j : nullptr)) return false;
+  r[0] = whole_r[0], r[1] = whole_r[1];
+  if (jacobians == nullptr) return true;
+  for (int b = 0; b < 4; ++b) {  // row-major: the first two rows are the first 2 * size values
+    if (jacobians[b] != nullptr) std::copy(whole_j[b], whole_j[b] + 2 * kSizes[b], jacobians[b]);
   }
   return true;
 }

@@ -181,6 +181,8 @@ struct Fix {
   double gap = 0.0;            ///< the SLAM's interpolation at its stamp (1-sigma, m)
   Vec3 sigma = Vec3::Zero();   ///< what it is weighted with in the current stage
   bool imprecise = false;      ///< its own std-dev is kPreciseStd or worse: Tukey's loss
+  /// Its height left out (leaveOutHeights()): its horizontal part alone takes part.
+  bool level_only = false;
 };
 
 class Fusion {
@@ -274,6 +276,10 @@ class Fusion {
   /// points beside it carry into the map, converges last. The problem is kept for what is
   /// measured at the solution.
   void polish();
+  /// Fixes the graph rejected that lie within kLevelApart of their sigmas of the fused
+  /// trajectory horizontally and beyond them in height take part with their horizontal part
+  /// alone: a SLAM whose height drifts from fixes that are right parts from them so.
+  void leaveOutHeights();
 
   /// The clock to the millisecond: the factor moves a fix by velocity x dt_ (first order, off
   /// by acceleration x dt_^2 / 2), so while the remainder is more than kRestampTolerance the

@@ -23,6 +23,8 @@ void Fusion::collect() {
     o.std_dev = ownSigma(gnss_[f.input].std_dev, unknown_h_, unknown_v_);
     o.weight = weightOf(f);
     o.verdict = o.weight < kRejectWeight ? FixVerdict::kOutlier : FixVerdict::kUsed;
+    o.height_left_out = f.level_only && o.verdict == FixVerdict::kUsed;
+    out_.heights_left_out += o.height_left_out ? 1 : 0;
     if (o.verdict == FixVerdict::kUsed) sigmas.push_back(f.sigma.x());
   }
   for (const auto& o : out_.fixes) {

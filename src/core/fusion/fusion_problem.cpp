@@ -40,9 +40,12 @@ std::unique_ptr<ceres::Problem> Fusion::makeProblem(std::size_t stride) {
     Keyframe& k = keyframes_[f.keyframe];
     f.imprecise = (f.known_std ? ownSigma(gnss_[f.input].std_dev, 0.0, 0.0).x()
                                : out_.unknown_white.x()) >= kPreciseStd;
-    problem->AddResidualBlock(new GnssCost(f.factor),
-                              f.imprecise ? loss_imprecise_.get() : loss_.get(), k.q, k.p, &k.s,
-                              &dt_);
+    ceres::LossFunction* loss = f.imprecise ? loss_imprecise_.get() : loss_.get();
+    if (f.level_only) {
+      problem->AddResidualBlock(new GnssLevelCost(f.factor), loss, k.q, k.p, &k.s, &dt_);
+    } else {
+      problem->AddResidualBlock(new GnssCost(f.factor), loss, k.q, k.p, &k.s, &dt_);
+    }
   }
   return problem;
 }
@@ -78,7 +81,17 @@ double Fusion::squaredResidual(const Fix& f) const {
   const Keyframe& k = keyframes_[f.keyframe];
   double r[3];
   f.factor(k.q, k.p, &k.s, &dt_, r);
-  return r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+  return r[0] * r[0] + r[1] * r[1] + (f.level_only ? 0.0 : r[2] * r[2]);
+}
+
+void Fusion::leaveOutHeights() {
+  constexpr double kLevelApart = 3.0;
+  for (Fix& f : fixes_) {
+    if (!f.imprecise || weightOf(f) >= kRejectWeight) continue;
+    const Vec3 e = residualOf(f);
+    f.level_only =
+        e.head<2>().norm() <= kLevelApart * f.own.x() && std::abs(e.z()) > kLevelApart * f.own.z();
+  }
 }
 
 void Fusion::solveStages() {
