@@ -299,8 +299,9 @@ struct RejectedStretch {
 
 /// Whether a fix lies within kApart of its sigmas of the fused trajectory horizontally and
 /// beyond them in height (its std-dev with the SLAM's jitter and gap there, as the fusion
-/// weighs it): a SLAM whose height drifts parts from good fixes so (KITTI 02 with urban GNSS:
-/// 14 fixes within 0.6 m of the truth, 1.4-2.6 m above the fused trajectory).
+/// weighs it): a SLAM whose height drifts parts from good fixes so. Code-grade ones take part
+/// with their horizontal part alone (warnHeightsLeftOut()); a rejected stretch of precise ones
+/// counts them.
 bool heightAlone(const FixOutcome& o) {
   constexpr double kApart = 3.0;
   if (!o.error.allFinite() || !o.std_dev.allFinite()) return false;
