@@ -294,23 +294,22 @@ struct RejectedStretch {
   double begin = 0.0, end = 0.0, worst = 0.0;
   std::size_t fixes = 0;
   std::size_t rough = 0;   ///< of its fixes, those rougher than their std-devs claim
-  std::size_t height = 0;  ///< of its fixes, those apart in height alone (heightAlone())
+  std::size_t height = 0;  ///< of its fixes, those apart in height alone (apartInHeightAlone())
 };
 
-/// Whether a fix lies within kApart of its sigmas of the fused trajectory horizontally and
-/// beyond them in height (its std-dev with the SLAM's jitter and gap there, as the fusion
-/// weighs it): a SLAM whose height drifts parts from good fixes so. Code-grade ones take part
-/// with their horizontal part alone (warnHeightsLeftOut()); a rejected stretch of precise ones
-/// counts them.
-bool heightAlone(const FixOutcome& o) {
-  constexpr double kApart = 3.0;
-  if (!o.error.allFinite() || !o.std_dev.allFinite()) return false;
-  const double gap2 = o.slam_gap * o.slam_gap;
-  const double h =
-      std::sqrt(o.std_dev.x() * o.std_dev.x() + o.slam_jitter.x() * o.slam_jitter.x() + gap2);
-  const double v =
-      std::sqrt(o.std_dev.z() * o.std_dev.z() + o.slam_jitter.z() * o.slam_jitter.z() + gap2);
-  return o.error.head<2>().norm() <= kApart * h && std::abs(o.error.z()) > kApart * v;
+/// Fixes apart from the fused trajectory in height alone worth a word: fewer may be the fixes'
+/// own noise.
+constexpr std::size_t kHeightFixes = 3;
+
+/// The fixes that took part in the fusion or were rejected by it, by stamp.
+std::vector<const FixOutcome*> judgedByStamp(const FusionResult& f) {
+  std::vector<const FixOutcome*> fixes;
+  for (const auto& o : f.fixes) {
+    if (o.verdict == FixVerdict::kUsed || o.verdict == FixVerdict::kOutlier) fixes.push_back(&o);
+  }
+  std::sort(fixes.begin(), fixes.end(),
+            [](const FixOutcome* a, const FixOutcome* b) { return a->stamp < b->stamp; });
+  return fixes;
 }
 
 /// Stretches of at least kStretchSeconds and kStretchFixes consecutive fixes (of those that
@@ -320,12 +319,7 @@ bool heightAlone(const FixOutcome& o) {
 std::vector<RejectedStretch> rejectedStretches(const FusionResult& f, bool given) {
   constexpr double kRtkStd = 0.05, kStretchSeconds = 3.0;
   constexpr std::size_t kStretchFixes = 5;
-  std::vector<const FixOutcome*> fixes;
-  for (const auto& o : f.fixes) {
-    if (o.verdict == FixVerdict::kUsed || o.verdict == FixVerdict::kOutlier) fixes.push_back(&o);
-  }
-  std::sort(fixes.begin(), fixes.end(),
-            [](const FixOutcome* a, const FixOutcome* b) { return a->stamp < b->stamp; });
+  const std::vector<const FixOutcome*> fixes = judgedByStamp(f);
   std::vector<RejectedStretch> out;
   RejectedStretch run;
   auto close = [&] {
@@ -345,7 +339,7 @@ std::vector<RejectedStretch> rejectedStretches(const FusionResult& f, bool given
     run.worst = std::max(run.worst, o->residual);
     ++run.fixes;
     run.rough += o->rough ? 1 : 0;
-    run.height += heightAlone(*o) ? 1 : 0;
+    run.height += apartInHeightAlone(o->error, o->weighedSigma()) ? 1 : 0;
   }
   close();
   std::sort(out.begin(), out.end(), [](const RejectedStretch& a, const RejectedStretch& b) {
@@ -380,7 +374,6 @@ std::string claimedVerdict(const RejectedStretch& run, const FusionResult& f) {
 
 void warnRejectedStretches(const FusionResult& f, bool given, const std::string& what,
                            std::vector<std::string>& out) {
-  constexpr std::size_t kHeightFixes = 3;  // fewer may be the fixes' own noise
   const std::vector<RejectedStretch> runs = rejectedStretches(f, given);
   for (std::size_t k = 0; k < runs.size() && k < 3; ++k) {
     std::ostringstream s;
@@ -390,8 +383,8 @@ void warnRejectedStretches(const FusionResult& f, bool given, const std::string&
       << " fixes" << (given ? ")" : ", no std-dev given)") << " up to " << runs[k].worst
       << " m off the fused trajectory";
     if (runs[k].height >= kHeightFixes) {
-      s << " (" << runs[k].height << " of them in height alone, within 3 sigma horizontally: as "
-        << "where the SLAM's height drifts)";
+      s << " (" << runs[k].height << " of them in height alone, within " << kHeightApart
+        << " sigma horizontally: as where the SLAM's height drifts)";
     }
     s << (given ? claimedVerdict(runs[k], f) : what);
     if (k == 2 && runs.size() > 3) s << " (and " << runs.size() - 3 << " more such stretches)";
@@ -403,17 +396,10 @@ void warnRejectedStretches(const FusionResult& f, bool given, const std::string&
 /// how many, the longest run of them among the fixes that took part, and how far their heights
 /// lie from the fused trajectory.
 void warnHeightsLeftOut(const FusionResult& f, std::vector<std::string>& out) {
-  constexpr std::size_t kHeightFixes = 3;  // fewer may be the fixes' own noise
   if (f.heights_left_out < kHeightFixes) return;
-  std::vector<const FixOutcome*> fixes;
-  for (const auto& o : f.fixes) {
-    if (o.verdict == FixVerdict::kUsed || o.verdict == FixVerdict::kOutlier) fixes.push_back(&o);
-  }
-  std::sort(fixes.begin(), fixes.end(),
-            [](const FixOutcome* a, const FixOutcome* b) { return a->stamp < b->stamp; });
   double worst = 0.0, begin = 0.0, end = 0.0, run_begin = 0.0;
   std::size_t longest = 0, run = 0;
-  for (const FixOutcome* o : fixes) {
+  for (const FixOutcome* o : judgedByStamp(f)) {
     if (!o->height_left_out) {
       run = 0;
       continue;

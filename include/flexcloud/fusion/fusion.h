@@ -58,11 +58,23 @@ struct FixOutcome {
   /// Precise by its std-dev, but its neighbours and it scatter more than that claims: it took no
   /// part in the refinement by precise fixes (precise_follow.h).
   bool rough = false;
-  /// Its height took no part: a code-grade fix that agrees with the fused trajectory
-  /// horizontally (within 3 of its sigmas) and not in height, as where the SLAM's height drifts.
+  /// Its height took no part: a code-grade fix the graph rejected that was apart from it in
+  /// height alone (apartInHeightAlone()).
   bool height_left_out = false;
   FixVerdict verdict = FixVerdict::kUsed;
+
+  /// Its std-dev with the SLAM's jitter and interpolation at its stamp, per axis, as the fusion
+  /// weighs it.
+  Eigen::Vector3d weighedSigma() const;
 };
+
+/// Sigmas within which a fix counts as agreeing with the fused trajectory horizontally.
+constexpr double kHeightApart = 3.0;
+
+/// Whether a fix `error` (m, ENU) off the fused trajectory, weighed with `sigma` (per axis),
+/// lies within kHeightApart of its sigmas of it horizontally and beyond them in height: a SLAM
+/// whose height drifts parts from good fixes so. False where either is not finite.
+bool apartInHeightAlone(const Eigen::Vector3d& error, const Eigen::Vector3d& sigma);
 
 struct FusionResult {
   /// The fused pose (ENU, body frame) at every pose of the input, in the same order.

@@ -276,9 +276,8 @@ class Fusion {
   /// points beside it carry into the map, converges last. The problem is kept for what is
   /// measured at the solution.
   void polish();
-  /// Fixes the graph rejected that lie within kLevelApart of their sigmas of the fused
-  /// trajectory horizontally and beyond them in height take part with their horizontal part
-  /// alone: a SLAM whose height drifts from fixes that are right parts from them so.
+  /// Code-grade fixes the graph rejected that are apart from it in height alone
+  /// (apartInHeightAlone()) take part with their horizontal part alone.
   void leaveOutHeights();
 
   /// The clock to the millisecond: the factor moves a fix by velocity x dt_ (first order, off

@@ -3,6 +3,19 @@
 #include "fusion_graph.h"
 
 namespace flexcloud {
+
+Eigen::Vector3d FixOutcome::weighedSigma() const {
+  const Eigen::Vector3d j2 = slam_jitter.cwiseProduct(slam_jitter);
+  return (std_dev.cwiseProduct(std_dev) + j2 + Eigen::Vector3d::Constant(slam_gap * slam_gap))
+      .cwiseSqrt();
+}
+
+bool apartInHeightAlone(const Eigen::Vector3d& error, const Eigen::Vector3d& sigma) {
+  if (!error.allFinite() || !sigma.allFinite()) return false;
+  return error.head<2>().norm() <= kHeightApart * sigma.x() &&
+         std::abs(error.z()) > kHeightApart * sigma.z();
+}
+
 namespace fusion_graph {
 
 Eigen::Isometry3d Fusion::keyframePose(const Keyframe& k) const {

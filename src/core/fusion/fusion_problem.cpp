@@ -85,12 +85,9 @@ double Fusion::squaredResidual(const Fix& f) const {
 }
 
 void Fusion::leaveOutHeights() {
-  constexpr double kLevelApart = 3.0;
   for (Fix& f : fixes_) {
     if (!f.imprecise || weightOf(f) >= kRejectWeight) continue;
-    const Vec3 e = residualOf(f);
-    f.level_only =
-        e.head<2>().norm() <= kLevelApart * f.own.x() && std::abs(e.z()) > kLevelApart * f.own.z();
+    f.level_only = apartInHeightAlone(residualOf(f), f.own);
   }
 }
 
