@@ -199,6 +199,9 @@ Pose warpPose(const RubberSheet& sheet, const Pose& p, int& hint) {
 
 namespace {
 
+// The fewest poses a drive can be georeferenced from: the sheet's 4 control points, one per pose.
+constexpr std::size_t kLeastPoses = 4;
+
 Trajectory warpTrajectory(const RubberSheet& sheet, const Trajectory& poses) {
   Trajectory out;
   out.reserve(poses.size());
@@ -226,9 +229,12 @@ void prepareInput(const DriveInput& input, const Params& params, GeoreferenceRes
                                     : prepareLocalGnss(input.local_gnss, gnssOptions(params));
   r.datum = r.gnss.datum;
   r.poses = preparePoses(input.poses, r.pose_counts);
-  if (r.poses.empty()) {
-    throw Error("poses: none of the " + std::to_string(r.pose_counts.received) +
-                " poses is usable (" + std::to_string(r.pose_counts.invalid) + " invalid)");
+  if (r.poses.size() < kLeastPoses) {
+    const std::string dropped = droppedInWords(r.pose_counts);
+    throw Error("poses: " + std::to_string(r.poses.size()) + " of the " +
+                std::to_string(r.pose_counts.received) + " poses usable" +
+                (dropped.empty() ? "" : " (" + dropped + ")") + ", at least " +
+                std::to_string(kLeastPoses) + " are needed");
   }
 }
 
@@ -564,9 +570,31 @@ void checkDegraded(const GeoreferenceResult& r, const Params& params, const Warp
               "degraded in report.json)");
 }
 
+namespace {
+
+/// The fixes and poses dropped on the way in, by reason, in one line (none: empty).
+std::string inputWarning(const GeoreferenceResult& r) {
+  const std::string fixes = droppedInWords(r.gnss.dropped), poses = droppedInWords(r.pose_counts);
+  if (fixes.empty() && poses.empty()) return "";
+  std::string s = "input: ";
+  if (!fixes.empty()) {
+    s += std::to_string(r.gnss.dropped.total()) + " of " + std::to_string(r.gnss.received) +
+         " fixes dropped: " + fixes;
+  }
+  if (!poses.empty()) {
+    s += std::string(fixes.empty() ? "" : "; ") +
+         std::to_string(r.pose_counts.invalid + r.pose_counts.duplicate) + " of " +
+         std::to_string(r.pose_counts.received) + " poses dropped: " + poses;
+  }
+  return s + " (report.json: counts)";
+}
+
+}  // namespace
+
 std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Params& params,
                                         const WarpStats* map, const std::string& map_frame) {
   std::vector<std::string> out;
+  if (std::string in = inputWarning(r); !in.empty()) out.push_back(std::move(in));
   auto percent = [](double share) { return std::to_string(std::lround(100.0 * share)) + " %"; };
   const double poses_without =
       r.poses.empty() ? 0.0 : 1.0 - static_cast<double>(r.poses_matched) / r.poses.size();

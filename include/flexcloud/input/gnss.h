@@ -3,6 +3,7 @@
 // ENU points, with every dropped fix counted by its reason.
 
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "flexcloud/geo/geodesy.h"
@@ -52,5 +53,8 @@ PreparedGnss prepareGeodeticGnss(const std::vector<RawFix>& fixes, const GnssOpt
 
 /// Already-local GNSS points (ENU metres of the options' datum, if given). Same filtering.
 PreparedGnss prepareLocalGnss(const std::vector<GnssPoint>& points, const GnssOptions& options);
+
+/// The fixes dropped, in words by reason ("3 invalid (...), 2 in jumps ..."); empty when none was.
+std::string droppedInWords(const GnssDropCounts& dropped);
 
 }  // namespace flexcloud

@@ -2,6 +2,7 @@
 // Cleaning of the SLAM trajectory and arc-length helpers.
 
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "flexcloud/types.h"
@@ -19,6 +20,9 @@ struct PoseCounts {
 
 /// Sorts by stamp (stable), drops invalid and duplicate-stamp poses, normalises quaternions.
 Trajectory preparePoses(const Trajectory& poses, PoseCounts& counts);
+
+/// The poses dropped, in words by reason; empty when none was.
+std::string droppedInWords(const PoseCounts& counts);
 
 /// Cumulative path length (m) at each position, starting at 0.
 std::vector<double> arcLength(const std::vector<Eigen::Vector3d>& positions);

@@ -200,4 +200,19 @@ PreparedGnss prepareLocalGnss(const std::vector<GnssPoint>& points, const GnssOp
   return out;
 }
 
+std::string droppedInWords(const GnssDropCounts& d) {
+  std::string out;
+  const auto add = [&](std::size_t n, const char* why) {
+    if (n > 0) out += (out.empty() ? "" : ", ") + std::to_string(n) + " " + why;
+  };
+  add(d.no_fix, "with the receiver's status NO_FIX");
+  add(d.invalid,
+      "invalid (a stamp, coordinate or std-dev that is not a finite number, a negative std-dev, "
+      "a latitude or longitude out of range)");
+  add(d.unknown_covariance, "without a covariance (default_std_dev, or fusion true, keeps them)");
+  add(d.duplicate, "with the stamp of an earlier fix");
+  add(d.outlier, "in position jumps no vehicle could make (max_gnss_speed)");
+  return out;
+}
+
 }  // namespace flexcloud

@@ -38,6 +38,20 @@ Trajectory preparePoses(const Trajectory& poses, PoseCounts& counts) {
   return out;
 }
 
+std::string droppedInWords(const PoseCounts& c) {
+  std::string out;
+  if (c.invalid > 0) {
+    out = std::to_string(c.invalid) +
+          " invalid (a stamp, position or quaternion that is not a finite number, a zero "
+          "quaternion, a coordinate beyond 1e8 m)";
+  }
+  if (c.duplicate > 0) {
+    out += (out.empty() ? "" : ", ") + std::to_string(c.duplicate) +
+           " with the stamp of an earlier pose";
+  }
+  return out;
+}
+
 std::vector<double> arcLength(const std::vector<Eigen::Vector3d>& positions) {
   std::vector<double> s(positions.size(), 0.0);
   for (std::size_t i = 1; i < positions.size(); ++i) {
