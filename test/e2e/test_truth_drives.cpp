@@ -164,8 +164,8 @@ TEST(TruthDrives, FixesApartInHeightAloneTakePartHorizontally) {
 // The poses' stamps shifted by a known 0.3 s either way: on the RTK drives the offset is found
 // to 5 ms but on 03 (the SLAM itself lags its truth there by 17-28 ms in speed, heading and
 // position alike), 04 (a 27 s straight at steady speed) and 10 (its speed and heading profiles
-// part by 20 ms); on every drive, RTK or urban, the offset lies within twice the 1-sigma
-// reported, or where the profiles cannot show it, it is not estimated and a warning says so.
+// part by 20 ms); on every drive, RTK or urban, it is estimated (03 urban, 80 s at 1 Hz, was not:
+// 2.6 m RMSE) and lies within twice the 1-sigma reported.
 TEST(TruthDrives, AKnownClockOffsetIsFoundOrHonestlyNot) {
   const std::vector<std::string> dirs = drives();
   SKIP_WITHOUT_DRIVES(dirs);
@@ -180,14 +180,15 @@ TEST(TruthDrives, AKnownClockOffsetIsFoundOrHonestlyNot) {
         std::printf("%s, stamps %+.1f s: offset %s, off by %+.1f ms (1-sigma %.1f ms)\n",
                     d.name.c_str(), shift, f.time_offset_estimated ? "estimated" : "not told",
                     1e3 * error, 1e3 * f.time_offset_sigma);
-        if (!f.time_offset_estimated) {
-          bool said = false;
-          for (const auto& w : resultWarnings(r, Params{}, nullptr))
-            said = said || w.rfind("clock: ", 0) == 0;
-          EXPECT_TRUE(said) << d.name;
-          continue;
-        }
+        EXPECT_TRUE(f.time_offset_estimated) << d.name << " " << shift;
         EXPECT_LE(std::abs(error), 2.0 * f.time_offset_sigma) << d.name << " " << shift;
+        if (f.time_offset_sigma > 0.05) {  // told loosely: a warning says how loosely
+          bool said = false;
+          for (const auto& w : resultWarnings(r, Params{}, nullptr)) {
+            said = said || w.rfind("clock: ", 0) == 0;
+          }
+          EXPECT_TRUE(said) << d.name << " " << shift;
+        }
         const std::string seq = std::filesystem::path(dir).filename().string();
         if (std::string(kind) == "rtk" && seq != "03" && seq != "04" && seq != "10") {
           EXPECT_LE(std::abs(error), 0.005) << d.name << " " << shift;
