@@ -734,7 +734,9 @@ double estimatedClockSigma(const GeoreferenceResult& r) {
   const auto take = [&](double s) {
     if (std::isfinite(s) && s > 0.0) sigma = std::min(sigma, s);
   };
-  if (r.fusion && r.fusion->time_offset != 0.0) {
+  if (r.fusion && r.fusion->time_offset != 0.0 && r.fusion->clock.loose) {
+    take(r.fusion->time_offset_sigma);  // the profiles knew it loosely, the fit decided it
+  } else if (r.fusion && r.fusion->time_offset != 0.0) {
     take(r.fusion->time_offset_speed_sigma);
     take(r.fusion->clock.heading.sigma);
   } else if (!r.fusion && r.speed_clock && std::isfinite(r.clock_offset_sigma)) {

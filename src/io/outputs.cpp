@@ -124,6 +124,7 @@ json clockJson(const GeoreferenceResult& r, const Params& params) {
     j["profiles_disagree"] = c.disagree;
     if (!c.reason.empty()) j["why_not_estimated"] = c.reason;
     j["from_positions_s"] = r.fusion->time_offset_from_positions;
+    j["decided_by_positions"] = c.loose;
     j["held_at_speed_profiles"] = r.fusion->time_offset_held;
   } else if (r.speed_clock) {
     j["estimated"] = std::isfinite(r.clock_offset_sigma);  // shown beyond its noise: applied

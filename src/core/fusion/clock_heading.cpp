@@ -232,6 +232,7 @@ ClockEstimate combineClock(const ClockOffsetEstimate& speed, const ClockOffsetEs
   out.offset = offset;
   out.sigma = std::hypot(sigma, kClockSystematic);
   out.observable = beyondSlamLag(offset, out.sigma, kClockSignificant);
+  out.loose = !out.observable && out.sigma > kLooseClock;
   if (!(std::abs(offset) > kClockSignificant * out.sigma)) {
     out.reason = "within its noise of 0";
   } else if (!out.observable) {

@@ -42,8 +42,9 @@ FusionResult Fusion::run(const Eigen::Isometry3d& T_enu_map) {
   leaveOutHeights();
   polish();
   // The fit of positions refines the offset within the profiles' sigma; their sigma stands,
-  // for what the SLAM's lag puts into both (clock_offset.h).
-  offset_sigma_ = clock_.observable ? clock_.sigma : kInf;
+  // for what the SLAM's lag puts into both (clock_offset.h), but where they knew it loosely:
+  // there the fit decided it, and its own sigma is the offset's.
+  offset_sigma_ = !clock_.observable ? kInf : out_.clock.loose ? fittedOffsetSigma() : clock_.sigma;
   collect();
   out_.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out_;
@@ -205,6 +206,14 @@ FusionResult fuseTrajectory(const Trajectory& poses, const std::vector<GnssPoint
   if (poses.size() < 2) throw Error("fusion: at least 2 poses are needed");
   const auto t0 = std::chrono::steady_clock::now();
   FusionResult out = fusion_graph::Fusion(poses, gnss, options, cancel).run(T_enu_map);
+  // Where the profiles knew the offset loosely, the fit's offset stands as theirs would: told
+  // from 0 and from a SLAM's own lag by its own sigma. Else the stamps as given, and the
+  // fusion again with them (the urban KITTI drives as given: fitted 1-16 ms, none applied).
+  if (out.clock.loose &&
+      !beyondSlamLag(out.time_offset, out.time_offset_sigma, kClockSignificant)) {
+    const Eigen::Vector2d fit(out.time_offset, out.time_offset_sigma);
+    out = fusion_graph::Fusion(poses, gnss, options, cancel, fit).run(T_enu_map);
+  }
   followPreciseGnss(out, FollowOptions{});
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;

@@ -1,13 +1,37 @@
 // The fusion's clock offset: from the speed and heading profiles, refined by the fit of
 // positions and restamped to the millisecond.
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <optional>
 
 #include "fusion_graph.h"
 
 namespace flexcloud {
 namespace fusion_graph {
+namespace {
+
+/// m/s: the spread of the horizontal velocities across the drive's main direction (the smaller
+/// axis of their covariance).
+double crossSpeedSpread(const Trajectory& poses) {
+  std::vector<Eigen::Vector2d> v;
+  for (std::size_t i = 1; i < poses.size(); ++i) {
+    const double dt = poses[i].stamp - poses[i - 1].stamp;
+    if (dt > 0.0) v.push_back((poses[i].position - poses[i - 1].position).head<2>() / dt);
+  }
+  if (v.size() < 2) return 0.0;
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (const auto& x : v) mean += x;
+  mean /= static_cast<double>(v.size());
+  Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+  for (const auto& x : v) cov += (x - mean) * (x - mean).transpose();
+  cov /= static_cast<double>(v.size());
+  return std::sqrt(
+      std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(cov).eigenvalues()(0)));
+}
+
+}  // namespace
 
 void Fusion::estimateClock() {
   std::vector<GnssPoint> taking_part;
@@ -21,10 +45,12 @@ void Fusion::estimateClock() {
     if (std::abs(heading.offset) > options_.max_time_offset) heading.observable = false;
   }
   out_.clock = combineClock(speed, heading);
-  // The fusion refines the offset only where the profiles tell it from 0, within their sigma.
+  if (out_.clock.loose) decideLooseClock();
+  // The fusion refines the offset only where the profiles tell it from 0, within their sigma,
+  // or where they know it loosely: from the stamps as given, within that sigma.
   clock_ = speed;
   clock_.observable = out_.clock.observable;
-  clock_.offset = out_.clock.offset;
+  clock_.offset = out_.clock.loose ? 0.0 : out_.clock.offset;
   clock_.sigma = out_.clock.sigma;
   shift_ = clock_.observable ? clock_.offset : 0.0;
   dt_ = 0.0;
@@ -48,10 +74,48 @@ void Fusion::solveRestampedAt(double shift) {
 
 void Fusion::holdClockWhereTheSpeedsDisagree() {
   out_.time_offset_from_positions = shift_ + dt_;
+  if (out_.clock.loose) return;  // the profiles too loose to overrule the fit
   const std::optional<double> held = heldClockOffset(shift_ + dt_, clock_);
   if (!held) return;
   out_.time_offset_held = true;
   solveRestampedAt(*held);
+}
+
+double Fusion::fittedOffsetSigma() {
+  const std::vector<Keyframe> best = keyframes_;
+  const double at = dt_;
+  const auto problem = makeProblem(1);
+  problem->SetParameterBlockConstant(&dt_);
+  // keyframes_ keeps its storage: the problem's blocks point into it.
+  const auto costAt = [&](double dt) {
+    keyframes_ = best;
+    dt_ = dt;
+    return solveAt(*problem, 0.0, kPolishIterations, kFinalTolerance);
+  };
+  const double c0 = costAt(at);
+  const double curvature = costAt(at + kOffsetProbe) + costAt(at - kOffsetProbe) - 2.0 * c0;
+  keyframes_ = best;
+  dt_ = at;
+  if (!(curvature > 0.0)) return clock_.sigma;
+  return std::min(clock_.sigma, std::hypot(kOffsetProbe / std::sqrt(curvature), kClockSystematic));
+}
+
+void Fusion::decideLooseClock() {
+  ClockEstimate& c = out_.clock;
+  if (loose_fit_) {
+    char told[96];
+    std::snprintf(told, sizeof(told), "%.1f +- %.1f ms", 1e3 * loose_fit_->x(),
+                  1e3 * loose_fit_->y());
+    c.reason += std::string(", and the fit of positions puts it at ") + told +
+                ", no more than its noise or a SLAM's own lag can show";
+  } else if (crossSpeedSpread(poses_) < kLeastTurn) {
+    c.reason += ", and the drive turns too little for the fit of positions to tell it";
+  } else {
+    c.observable = true;
+    c.reason.clear();
+    return;
+  }
+  c.loose = false;
 }
 
 }  // namespace fusion_graph

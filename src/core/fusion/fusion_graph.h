@@ -11,6 +11,7 @@
 #include <cstddef>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "flexcloud/cancel.h"
@@ -38,6 +39,7 @@ constexpr int kNoiseRounds = 2;
 constexpr double kMostNoiseStep = 2.0;
 constexpr double kMinOffsetSigma = 0.005;    // s, tightest the speed profiles hold the offset
 constexpr double kRestampTolerance = 0.001;  // s: a remainder beyond restamps the fixes
+constexpr double kOffsetProbe = 0.01;        // s: the offset's moves for its fitted sigma
 constexpr int kRestampRounds = 2;
 // Relative change of the cost at which a solve stops: coarse for the stages (on a2rl 4-5
 // iterations each instead of up to 21), fine for the last.
@@ -187,12 +189,15 @@ struct Fix {
 
 class Fusion {
  public:
+  /// `loose_fit`: a run before found the offset loosely known and its fit of positions not
+  /// told from 0 or a SLAM's own lag (offset, 1-sigma, s): this one keeps the stamps as given.
   Fusion(const Trajectory& poses, const std::vector<GnssPoint>& gnss, const FusionOptions& options,
-         const CancelToken& cancel)
+         const CancelToken& cancel, std::optional<Eigen::Vector2d> loose_fit = std::nullopt)
       : poses_(poses),
         gnss_(gnss),
         options_(options),
         cancel_(cancel),
+        loose_fit_(loose_fit),
         noise_(noiseOf(options, 1)),
         solver_threads_(threadCount(options.threads)) {}
 
@@ -295,6 +300,17 @@ class Fusion {
   /// held where heldClockOffset() says and the full problem solved again at it.
   void holdClockWhereTheSpeedsDisagree();
 
+  /// The fit's own 1-sigma of the offset, where the profiles knew it loosely (ClockEstimate::
+  /// loose): from the curvature of the cost with the offset moved kOffsetProbe either way and
+  /// everything else solved again (a profile likelihood), kClockSystematic added; at most the
+  /// profiles' sigma.
+  double fittedOffsetSigma();
+
+  /// An offset the profiles knew loosely (ClockEstimate::loose): the fit of positions decides it
+  /// (observable), but on a straight (kLeastTurn) or where a run before found the fit's offset
+  /// not told from 0 or a SLAM's own lag (loose_fit_); the reason then says which.
+  void decideLooseClock();
+
   /// Squared normalised residual of a fix at the current estimate.
   double squaredResidual(const Fix& f) const;
 
@@ -307,10 +323,11 @@ class Fusion {
   void solveStages();
 
   /// Solves from the current estimate, every fix weighted as if its std-dev were at least
-  /// `floor`. The stages stop at a coarse tolerance (kStageTolerance): their result is the next
-  /// stage's start, and only the last solve (polish) runs to kFinalTolerance.
-  void solveAt(ceres::Problem& problem, double floor, int iterations,
-               double tolerance = kStageTolerance);
+  /// `floor`; returns the cost reached. The stages stop at a coarse tolerance (kStageTolerance):
+  /// their result is the next stage's start, and only the last solve (polish) runs to
+  /// kFinalTolerance.
+  double solveAt(ceres::Problem& problem, double floor, int iterations,
+                 double tolerance = kStageTolerance);
 
   /// Moves the clock offset (shift_ + dt_) back within max_time_offset where a solve took it
   /// beyond; true if it did.
@@ -350,6 +367,7 @@ class Fusion {
   const std::vector<GnssPoint>& gnss_;
   const FusionOptions options_;
   const CancelToken& cancel_;
+  std::optional<Eigen::Vector2d> loose_fit_;  ///< see the constructor
   Noise noise_;
   std::vector<Keyframe> keyframes_;
   std::vector<Fix> fixes_;

@@ -112,7 +112,7 @@ void Fusion::solveStages() {
   for (int round = 0; round < 3 && estimateUnknownStd(); ++round) solveAt(*full, 0.0, 20);
 }
 
-void Fusion::solveAt(ceres::Problem& problem, double floor, int iterations, double tolerance) {
+double Fusion::solveAt(ceres::Problem& problem, double floor, int iterations, double tolerance) {
   cancel_.check("fusion");
   for (auto& f : fixes_) f.sigma = f.own.cwiseMax(floor);
   ceres::Solver::Options o;
@@ -140,6 +140,7 @@ void Fusion::solveAt(ceres::Problem& problem, double floor, int iterations, doub
   }
   ++out_.stages;
   out_.solves += solves;
+  return summary.final_cost;
 }
 
 bool Fusion::clampOffset() {
