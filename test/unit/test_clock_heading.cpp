@@ -155,8 +155,9 @@ TEST(ClockCombined, AnOffsetKnownLooselyIsLeftToTheFit) {
   EXPECT_FALSE(c.observable);
   EXPECT_TRUE(c.loose);
   EXPECT_NEAR(c.sigma, std::hypot(0.0336, kClockSystematic), 1e-12);
-  EXPECT_EQ(c.reason, "no more than a SLAM's own lag can show in its speed and heading (72 ms at "
-                      "this sigma)");
+  EXPECT_EQ(c.reason,
+            "no more than a SLAM's own lag can show in its speed and heading (72 ms at "
+            "this sigma)");
   const ClockEstimate tight = combineClock(profile(0.0100, 0.0100), none);
   EXPECT_FALSE(tight.observable);
   EXPECT_FALSE(tight.loose);
