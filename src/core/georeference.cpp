@@ -229,6 +229,7 @@ void prepareInput(const DriveInput& input, const Params& params, GeoreferenceRes
                                     : prepareLocalGnss(input.local_gnss, gnssOptions(params));
   r.datum = r.gnss.datum;
   r.poses = preparePoses(input.poses, r.pose_counts);
+  if (r.pose_counts.received == 0) throw Error("poses: none given (an empty file, topic or bag)");
   if (r.poses.size() < kLeastPoses) {
     const std::string dropped = droppedInWords(r.pose_counts);
     throw Error("poses: " + std::to_string(r.poses.size()) + " of the " +

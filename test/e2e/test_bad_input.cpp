@@ -247,6 +247,9 @@ TEST(BadInput, FewerThanFourPosesIsAClearError) {
     const std::string e = errorOf(in, p);
     EXPECT_EQ(e, "poses: 3 of the 3 poses usable, at least 4 are needed") << e;
   }
+  DriveInput empty = inputOf(d);
+  empty.poses.clear();
+  EXPECT_EQ(errorOf(empty, Params{}), "poses: none given (an empty file, topic or bag)");
   // Poses that all share one stamp leave one: the error says so, not what follows from it.
   DriveInput same = inputOf(d);
   for (auto& p : same.poses) p.stamp = same.poses.front().stamp;
@@ -343,10 +346,14 @@ TEST(BadInput, TheThresholdIsHorizontal) {
 
 TEST(BadInput, NoFixAtAll) {
   const sim::SimDrive d = sim::simulateDrive(small());
-  DriveInput in = inputOf(d);
-  in.fixes.clear();
-  EXPECT_NE(errorOf(in, Params{}).find("none of the 0 fixes"), std::string::npos);
-  for (auto& f : in.fixes) f.has_fix = false;
+  DriveInput none = inputOf(d);
+  none.fixes.clear();
+  EXPECT_EQ(errorOf(none, Params{}), "GNSS: no fix given (an empty file, topic or bag)");
+  DriveInput lost = inputOf(d);
+  for (auto& f : lost.fixes) f.has_fix = false;
+  const std::string n = std::to_string(lost.fixes.size());
+  EXPECT_EQ(errorOf(lost, Params{}), "GNSS: none of the " + n + " fixes is usable (no fix " + n +
+                                         ", invalid 0, unknown covariance 0, duplicate 0, jump 0)");
 }
 
 TEST(BadInput, LapsRevisitTheSamePlace) {

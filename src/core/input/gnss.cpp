@@ -117,6 +117,7 @@ std::string dropSummary(const GnssDropCounts& d) {
 }
 
 void requireSome(const PreparedGnss& out) {
+  if (out.received == 0) throw Error("GNSS: no fix given (an empty file, topic or bag)");
   if (out.points.empty()) {
     // Fixes without a covariance are dropped only without the fusion: say what keeps them.
     const std::string hint =
