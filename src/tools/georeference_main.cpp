@@ -306,6 +306,18 @@ std::string rejectedShare(const GeoreferenceResult& r) {
   return std::to_string(rejected) + " of " + std::to_string(judged) + " fixes rejected";
 }
 
+/// The clock offset applied (SLAM clock minus GNSS clock): estimated with its 1-sigma, or given.
+std::string clockPart(const GeoreferenceResult& r) {
+  char s[96];
+  if (std::isfinite(r.clock_offset_sigma)) {
+    std::snprintf(s, sizeof(s), "clock offset %+.1f +- %.1f ms", 1e3 * r.clock_offset,
+                  1e3 * r.clock_offset_sigma);
+  } else {
+    std::snprintf(s, sizeof(s), "clock offset %+.1f ms as given", 1e3 * r.clock_offset);
+  }
+  return s;
+}
+
 void printSummary(const GeoreferenceResult& r, const Params& params, const MapInfo* map,
                   const std::string& out, const std::string& map_frame) {
   char line[512];
@@ -323,9 +335,9 @@ void printSummary(const GeoreferenceResult& r, const Params& params, const MapIn
       line, sizeof(line),
       "  trajectory vs truth  sigma per axis: median %.3f m, 95th percentile %.3f m (the 95 %% "
       "circle: 2.45 sigma); least certain %.3f m at %.1f-%.1f s; %s, rigid "
-      "scale %.4f, %s\n",
+      "scale %.4f, %s, %s\n",
       r.sigma.median_h, r.sigma.p95_h, r.sigma.worst.sigma_h, r.sigma.worst.from, r.sigma.worst.to,
-      toString(r.method).c_str(), r.scale, rejectedShare(r).c_str());
+      toString(r.method).c_str(), r.scale, rejectedShare(r).c_str(), clockPart(r).c_str());
   std::cout << line;
   const auto& a = r.metrics_aligned;
   const auto& b = r.metrics_rubbersheet;

@@ -403,11 +403,22 @@ TEST_F(Tools, ADegradedResultFailsUnlessAccepted) {
 TEST_F(Tools, TheClockSaysWhyItWasNotEstimated) {
   for (const std::string set : {"", " --set fusion=false", " --set max_time_offset=0"}) {
     const std::string o = out("clock" + std::to_string(set.size()));
-    ASSERT_EQ(
-        sh(bin("georeference") + " --bag " + sim() + "/drive.bag -q" + set + " --out " + o).code, 0)
-        << set;
+    const Result run =
+        sh(bin("georeference") + " --bag " + sim() + "/drive.bag -q" + set + " --out " + o);
+    ASSERT_EQ(run.code, 0) << set;
     const nlohmann::json clock = readJson(o + "/report.json")["clock"];
     ASSERT_TRUE(clock.contains("estimated")) << set;
+    // The summary's lead line says which offset was applied.
+    char applied[96];
+    if (clock["estimated"].get<bool>()) {
+      std::snprintf(applied, sizeof(applied), ", clock offset %+.1f +- %.1f ms\n",
+                    1e3 * clock["offset_s"].get<double>(),
+                    1e3 * clock["offset_sigma_s"].get<double>());
+    } else {
+      std::snprintf(applied, sizeof(applied), ", clock offset %+.1f ms as given\n",
+                    1e3 * clock["offset_s"].get<double>());
+    }
+    EXPECT_NE(run.output.find(applied), std::string::npos) << applied << run.output;
     if (clock["estimated"].get<bool>()) continue;
     ASSERT_TRUE(clock.contains("why_not_estimated")) << set << clock.dump();
     EXPECT_FALSE(clock["why_not_estimated"].get<std::string>().empty()) << set;
