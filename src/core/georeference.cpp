@@ -583,8 +583,7 @@ std::string inputWarning(const GeoreferenceResult& r) {
          " fixes dropped: " + fixes;
   }
   if (!poses.empty()) {
-    s += std::string(fixes.empty() ? "" : "; ") +
-         std::to_string(r.pose_counts.invalid + r.pose_counts.duplicate) + " of " +
+    s += std::string(fixes.empty() ? "" : "; ") + std::to_string(r.pose_counts.dropped()) + " of " +
          std::to_string(r.pose_counts.received) + " poses dropped: " + poses;
   }
   return s + " (report.json: counts)";
@@ -735,11 +734,13 @@ double estimatedClockSigma(const GeoreferenceResult& r) {
   const auto take = [&](double s) {
     if (std::isfinite(s) && s > 0.0) sigma = std::min(sigma, s);
   };
-  if (r.fusion && r.fusion->time_offset != 0.0 && r.fusion->clock.loose) {
-    take(r.fusion->time_offset_sigma);  // the profiles knew it loosely, the fit decided it
-  } else if (r.fusion && r.fusion->time_offset != 0.0) {
-    take(r.fusion->time_offset_speed_sigma);
-    take(r.fusion->clock.heading.sigma);
+  if (r.fusion && r.fusion->time_offset != 0.0) {
+    if (r.fusion->clock.loose) {
+      take(r.fusion->time_offset_sigma);  // the profiles knew it loosely, the fit decided it
+    } else {
+      take(r.fusion->time_offset_speed_sigma);
+      take(r.fusion->clock.heading.sigma);
+    }
   } else if (!r.fusion && r.speed_clock && std::isfinite(r.clock_offset_sigma)) {
     take(r.speed_clock->sigma);
   }

@@ -145,6 +145,11 @@ class MapJob {
     info_.grid_seconds += since(t1);
   }
 
+  /// Points a chunk's buffer holds: a chunk, or the whole map where it is smaller.
+  std::size_t bufferPoints() const {
+    return std::min(chunk(), std::max<std::size_t>(1, header().points));
+  }
+
   /// The bytes of a point as the warp holds it: the file's row, with point sigmas widened by
   /// room for them (widenPoints), which the warp fills.
   std::size_t rowStep() const {
@@ -221,10 +226,8 @@ using ChunkWrite = std::function<void(const std::uint8_t* buf, std::size_t first
 /// Warps a map chunk by chunk through three buffers: chunk i+1 is read and chunk i-1 written
 /// while chunk i is warped, so the copies in and out of the buffers keep no core waiting.
 void warpChunks(MapJob& job, const ChunkRead& read, const ChunkWrite& write) {
-  const PcdHeader& h = job.header();
   std::array<std::vector<std::uint8_t>, 3> buffers;
-  for (auto& b : buffers)
-    b.resize(std::min(job.chunk(), std::max<std::size_t>(1, h.points)) * job.rowStep());
+  for (auto& b : buffers) b.resize(job.bufferPoints() * job.rowStep());
   auto readInto = [&](std::size_t slot, std::size_t first) {
     const auto t0 = Clock::now();
     const std::size_t n = read(buffers[slot].data(), first);
@@ -305,7 +308,7 @@ void warpPipeline(MapJob& job, const std::string& out, bool sigmas) {
       job,
       [&](std::uint8_t* buf, std::size_t) {
         if (!sigmas) return job.reader().read(buf, job.chunk());
-        narrow.resize(std::min(job.chunk(), std::max<std::size_t>(1, h.points)) * h.point_step);
+        narrow.resize(job.bufferPoints() * h.point_step);
         const std::size_t n = job.reader().read(narrow.data(), job.chunk());
         widenPoints(narrow.data(), h.point_step, n, buf);
         return n;

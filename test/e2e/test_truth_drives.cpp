@@ -154,7 +154,9 @@ TEST(TruthDrives, FixesApartInHeightAloneTakePartHorizontally) {
                 d.name.c_str(), here, r.fusion->heights_left_out, named ? "yes" : "no");
     EXPECT_EQ(here, r.fusion->heights_left_out) << d.name;
     EXPECT_EQ(named, here >= 3) << d.name;
-    if (d.name == "02 urban") EXPECT_GE(here, 10u);
+    if (d.name == "02 urban") {
+      EXPECT_GE(here, 10u);
+    }
   }
   std::printf("%zu fixes without their height, %zu of them within 1 m of the truth\n", counted,
               good);
@@ -199,7 +201,9 @@ TEST(TruthDrives, AKnownClockOffsetIsFoundOrHonestlyNot) {
         EXPECT_LE(std::abs(error), lags ? 0.018 : 2.0 * f.time_offset_sigma)
             << d.name << " " << shift;
         // Told loosely: a warning says how loosely.
-        if (f.time_offset_sigma > 0.05) EXPECT_FALSE(clock_warning.empty()) << d.name;
+        if (f.time_offset_sigma > 0.05) {
+          EXPECT_FALSE(clock_warning.empty()) << d.name;
+        }
         if (kind == "rtk" && seq != "02" && seq != "03" && seq != "04" && seq != "10") {
           EXPECT_LE(std::abs(error), 0.005) << d.name << " " << shift;
         }

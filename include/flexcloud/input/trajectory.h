@@ -16,6 +16,7 @@ struct PoseCounts {
   std::size_t duplicate = 0;   ///< same stamp as an earlier pose
   std::size_t normalised = 0;  ///< quaternion was not unit length and was normalised
   std::size_t reordered = 0;   ///< arrived out of stamp order (kept, sorted)
+  std::size_t dropped() const { return invalid + duplicate; }
 };
 
 /// Sorts by stamp (stable), drops invalid and duplicate-stamp poses, normalises quaternions.

@@ -298,7 +298,8 @@ SheetWithBeside buildFaithfulSheet(ControlPointSelection& cps, const Trajectory&
     if (finite.empty()) return out;
     const double worst = *std::max_element(finite.begin(), finite.end());
     const double least = std::max(kFaithful, kBreakMedians * median(finite));
-    if (!best || worst <= best_worst + least) best = out, best_cps = cps, best_worst = worst;
+    if (!best || worst <= best_worst + least)
+      best = std::move(out), best_cps = cps, best_worst = worst;
     const bool last = round >= kFoldRounds || (round >= kFaithfulRounds && best_worst <= kFold);
     const auto picks =
         last ? std::vector<std::size_t>{}
