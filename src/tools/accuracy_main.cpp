@@ -47,7 +47,10 @@ errors against the ground truth (doc/ACCURACY.md).
                             trajectory against the truth at the poses' true instants: horizontal
                             RMSE, MAX, MAX in the first and last 5 s and elsewhere, fixes
                             rejected of those that took part, fixes more than 3 m off the truth
-                            rejected, the clock's error
+                            rejected, the clock's error; then how the defaults' pose sigmas
+                            cover the errors: the shares within 2.45 sigma_h and 1.96 sigma_v,
+                            the band calibrated sigmas show on as many independent samples,
+                            per drive and pooled
   --shift S                 with --truth-drives: the poses' stamps moved by S seconds (a known
                             clock offset) (default 0)
   -h, --help

@@ -9,6 +9,7 @@
 #include "flexcloud/metrics.h"
 #include "flexcloud/param_table.h"
 #include "flexcloud/params.h"
+#include "flexcloud/sim/truth_metrics.h"
 
 namespace flexcloud::study {
 namespace {
@@ -90,6 +91,49 @@ Params publishedMethod(int control_points) {
   return p;
 }
 
+sim::SigmaCoverage sigmaCoverage(const TruthDrive& d, const GeoreferenceResult& r) {
+  std::vector<Eigen::Vector3d> errors;
+  for (std::size_t i = 0; i < d.truth.size() && i < r.rubbersheet.size(); ++i) {
+    errors.push_back(r.rubbersheet[i].position - d.truth[i].position);
+  }
+  return sim::sigmaCoverage(errors, r.sigma.h, r.sigma.v);
+}
+
+namespace {
+
+/// One row of the calibration table: the shares within the 95 % regions, the band calibrated
+/// sigmas show on as many independent samples, the median sigma and the RMSE (m).
+void printCoverageRow(const std::string& name, const sim::SigmaCoverage& c, double median,
+                      double rmse) {
+  const sim::CoverageBand h = sim::calibratedBand(c.independent_h),
+                          v = sim::calibratedBand(c.independent_v);
+  std::printf("| %s | %.1f / %.1f %% | %.0f-%.0f / %.0f-%.0f %% | %.0f / %.0f |", name.c_str(),
+              100.0 * c.shareH(), 100.0 * c.shareV(), 100.0 * h.low, 100.0 * h.high, 100.0 * v.low,
+              100.0 * v.high, c.independent_h, c.independent_v);
+  if (median > 0.0) {
+    std::printf(" %.3f / %.3f |\n", median, rmse);
+  } else {
+    std::printf(" - |\n");
+  }
+}
+
+}  // namespace
+
+void printCalibrationRows(const std::vector<CalibrationRow>& rows) {
+  std::printf(
+      "\n| drive | within 2.45 / 1.96 sigma, h / v | calibrated sigmas (99 %% of drives), h / v "
+      "| independent samples, h / v | median sigma / RMSE (m) |\n|---|---:|---:|---:|---:|\n");
+  sim::SigmaCoverage pooled[2];
+  for (const CalibrationRow& row : rows) {
+    printCoverageRow(row.name, row.coverage, row.median_h, row.rmse);
+    pooled[row.name.find("urban") != std::string::npos] += row.coverage;
+  }
+  const char* kinds[] = {"all RTK", "all urban"};
+  for (int k = 0; k < 2; ++k) {
+    if (pooled[k].poses > 0.0) printCoverageRow(kinds[k], pooled[k], 0.0, 0.0);
+  }
+}
+
 void printTruthDriveRows(const std::vector<std::string>& dirs, int control_points,
                          const std::vector<std::pair<std::string, std::string>>& sets,
                          double shift) {
@@ -109,6 +153,7 @@ void printTruthDriveRows(const std::vector<std::string>& dirs, int control_point
       {"published method", published},
       {"fusion: false", make(false, Params().refine_fraction, Params().max_time_offset)},
       {"defaults", make(true, Params().refine_fraction, Params().max_time_offset)}};
+  std::vector<CalibrationRow> calibration;
   for (const auto& dir : dirs) {
     for (const char* kind : {"rtk", "urban"}) {
       if (!std::filesystem::exists(dir + "/gnss_" + kind + ".txt")) continue;
@@ -116,6 +161,9 @@ void printTruthDriveRows(const std::vector<std::string>& dirs, int control_point
       for (const auto& [method, p] : methods) {
         const GeoreferenceResult r = georeference(d.input, p);
         const TruthScore s = scoreAgainstTruth(d, r);
+        if (method == "defaults") {
+          calibration.push_back({d.name, sigmaCoverage(d, r), r.sigma.median_h, s.rmse});
+        }
         std::printf("| %s | %s | %.3f | %.3f | %.3f | %.3f | %zu / %zu | %zu / %zu | %+.1f ms |\n",
                     d.name.c_str(), method.c_str(), s.rmse, s.max, s.ends_max, s.middle_max,
                     s.rejected, s.fixes, s.far_rejected, s.far, 1e3 * (r.clock_offset - shift));
@@ -123,6 +171,7 @@ void printTruthDriveRows(const std::vector<std::string>& dirs, int control_point
       }
     }
   }
+  printCalibrationRows(calibration);
 }
 
 }  // namespace flexcloud::study

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "flexcloud/georeference.h"
+#include "flexcloud/sim/truth_metrics.h"
 
 namespace flexcloud::study {
 
@@ -34,6 +35,19 @@ struct TruthScore {
   std::size_t fixes = 0, rejected = 0, far = 0, far_rejected = 0;
 };
 TruthScore scoreAgainstTruth(const TruthDrive& d, const GeoreferenceResult& r);
+
+/// A result's pose sigmas against the drive's truth (sim::sigmaCoverage).
+sim::SigmaCoverage sigmaCoverage(const TruthDrive& d, const GeoreferenceResult& r);
+
+/// The calibration of the defaults on one drive: its coverage, median sigma and RMSE (m).
+struct CalibrationRow {
+  std::string name;
+  sim::SigmaCoverage coverage;
+  double median_h = 0.0, rmse = 0.0;
+};
+
+/// The calibration table (markdown): a row per drive, then the RTK and the urban drives pooled.
+void printCalibrationRows(const std::vector<CalibrationRow>& rows);
 
 /// The published method on these drives: GNSS control points at the poses' stamps as given,
 /// no refinement, no fusion (0.03 m for fixes without a std-dev).

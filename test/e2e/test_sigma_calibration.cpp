@@ -11,6 +11,7 @@
 
 #include "flexcloud/georeference.h"
 #include "flexcloud/sim/scenarios.h"
+#include "flexcloud/sim/truth_metrics.h"
 #include "flexcloud/uncertainty/point_sigma.h"
 #include "test_util.h"
 
@@ -41,20 +42,20 @@ Params paramsFor(const sim::SimDrive& d) {
 }
 
 struct Calibration {
-  double within_h = 0.0, within_v = 0.0, rmse = 0.0;
+  sim::SigmaCoverage coverage;
+  double rmse = 0.0;
 };
 
 Calibration calibration(const GeoreferenceResult& r, const Trajectory& truth) {
-  Calibration c;
+  std::vector<Eigen::Vector3d> errors;
+  double squares = 0.0;
   std::size_t k = 0;
-  for (std::size_t i = 0; i < r.rubbersheet.size(); ++i) {
-    const Eigen::Vector3d e = r.rubbersheet[i].position - truthAt(truth, r.rubbersheet[i].stamp, k);
-    c.within_h += e.head<2>().norm() <= 2.45 * r.sigma.h[i];
-    c.within_v += std::abs(e.z()) <= 1.96 * r.sigma.v[i];
-    c.rmse += e.head<2>().squaredNorm();
+  for (const Pose& p : r.rubbersheet) {
+    errors.push_back(p.position - truthAt(truth, p.stamp, k));
+    squares += errors.back().head<2>().squaredNorm();
   }
-  const auto n = static_cast<double>(r.rubbersheet.size());
-  return {c.within_h / n, c.within_v / n, std::sqrt(c.rmse / n)};
+  return {sim::sigmaCoverage(errors, r.sigma.h, r.sigma.v),
+          std::sqrt(squares / static_cast<double>(errors.size()))};
 }
 
 // At least 85 % within the 95 % circle on every drive, and 80 % vertically but on
@@ -65,24 +66,39 @@ Calibration calibration(const GeoreferenceResult& r, const Trajectory& truth) {
 // and on urban_keyframes_1hz, whose keyframe graph jumps by decimetres: the walk's intensity
 // learned from its fixes (0.03 m^2 per m, one Gaussian for the jumps and the metres between
 // them) speaks for every metre, 3.1x a trajectory 0.39 m off the truth: within 3.5 times there.
+// Pooled (but city_ins_10hz), 93-98 % both ways: 96.7 / 95.8 % of about 2000 independent
+// samples, where calibrated sigmas show 94-96 %.
 TEST(SigmaCalibration, SimulatedDrivesAgainstTheirTruth) {
+  sim::SigmaCoverage pooled;
   for (const char* name : kScenarios) {
     const sim::SimDrive d = sim::simulateDrive(sim::scenario(name, 1, 1000));
     const GeoreferenceResult r = georeference(test::inputOf(d), paramsFor(d));
     const Calibration c = calibration(r, d.truth);
+    const sim::SigmaCoverage& s = c.coverage;
     std::printf(
-        "%s: %.1f %% within 2.45 sigma, %.1f %% within 1.96 sigma vertical, median "
-        "sigma %.3f m, RMSE %.3f m\n",
-        name, 100.0 * c.within_h, 100.0 * c.within_v, r.sigma.median_h, c.rmse);
+        "%s: %.1f %% within 2.45 sigma, %.1f %% within 1.96 sigma vertical (%.0f / %.0f "
+        "independent samples), median sigma %.3f m, RMSE %.3f m\n",
+        name, 100.0 * s.shareH(), 100.0 * s.shareV(), s.independent_h, s.independent_v,
+        r.sigma.median_h, c.rmse);
     const std::string n = name;
-    EXPECT_GE(c.within_h, 0.85) << n;
+    EXPECT_GE(s.shareH(), 0.85) << n;
     if (n != "city_ins_10hz") {
-      EXPECT_GE(c.within_v, 0.80) << n;
+      EXPECT_GE(s.shareV(), 0.80) << n;
+      pooled += s;
     }
     const bool cautious = n == "loop_offset_lever" || n == "open_height_drift" ||
                           n == "open_varying_drift" || n == "urban_keyframes_1hz";
     EXPECT_LE(r.sigma.median_h, (cautious ? 3.5 : 2.0) * c.rmse) << n;
   }
+  const sim::CoverageBand h = sim::calibratedBand(pooled.independent_h),
+                          v = sim::calibratedBand(pooled.independent_v);
+  std::printf("pooled: %.1f %% (%.1f-%.1f) / %.1f %% (%.1f-%.1f), %.0f / %.0f samples\n",
+              100.0 * pooled.shareH(), 100.0 * h.low, 100.0 * h.high, 100.0 * pooled.shareV(),
+              100.0 * v.low, 100.0 * v.high, pooled.independent_h, pooled.independent_v);
+  EXPECT_GE(pooled.shareH(), 0.93);
+  EXPECT_LE(pooled.shareH(), 0.98);
+  EXPECT_GE(pooled.shareV(), 0.93);
+  EXPECT_LE(pooled.shareV(), 0.98);
 }
 
 // The receiver's first fix 30 s after the SLAM's first pose, its last 30 s before its last: the
