@@ -230,11 +230,18 @@ void closeSmoothly(std::vector<Eigen::Isometry3d>& slam, Steps& step, const std:
   }
 }
 
-}  // namespace
+/// Every pose's position off by white noise of its own (SlamErrors::pose_jitter).
+void addPoseJitter(std::vector<Eigen::Isometry3d>& slam, const SimParams& p) {
+  if (!(p.slam_errors.pose_jitter > 0.0)) return;
+  std::mt19937_64 rng(p.seed ^ 0x7a1e5c3dull);
+  std::normal_distribution<double> n(0.0, p.slam_errors.pose_jitter);
+  for (auto& pose : slam) pose.translation() += Eigen::Vector3d(n(rng), n(rng), n(rng));
+}
 
-std::vector<Eigen::Isometry3d> integrateSlam(const std::vector<Eigen::Isometry3d>& truth,
-                                             const std::vector<double>& arc, const SimParams& p,
-                                             std::mt19937_64& rng) {
+/// The SLAM's poses before their jitter (integrateSlam).
+std::vector<Eigen::Isometry3d> integrateSmoothSlam(const std::vector<Eigen::Isometry3d>& truth,
+                                                   const std::vector<double>& arc,
+                                                   const SimParams& p, std::mt19937_64& rng) {
   const std::size_t n = truth.size();
   std::vector<Eigen::Isometry3d> slam(n, Eigen::Isometry3d::Identity());
   if (n < 2) return slam;
@@ -255,6 +262,16 @@ std::vector<Eigen::Isometry3d> integrateSlam(const std::vector<Eigen::Isometry3d
   } else {
     closeSmoothly(slam, step, dz, truth, arc, ds, p, rng);
   }
+  return slam;
+}
+
+}  // namespace
+
+std::vector<Eigen::Isometry3d> integrateSlam(const std::vector<Eigen::Isometry3d>& truth,
+                                             const std::vector<double>& arc, const SimParams& p,
+                                             std::mt19937_64& rng) {
+  std::vector<Eigen::Isometry3d> slam = integrateSmoothSlam(truth, arc, p, rng);
+  addPoseJitter(slam, p);
   return slam;
 }
 

@@ -48,6 +48,7 @@ constexpr const char* kUsage = R"(usage: simulate_drive [options]
                           georeference --set gnss_time_offset=S undoes it
   --heading-bias D        deg per 100 m (default 0.1)   --pitch-bias D (default 0.04)
   --scale-error F         (default 0.002)
+  --pose-jitter S         white noise on every SLAM pose's position, m per axis (default 0)
   --odom-type T           odometry (default), pose or path
   --fix-topic T           topic of the fixes in the bag (default /fix)
   --odom-topic T          topic of the poses in the bag (default /odom)
@@ -112,6 +113,8 @@ Options parse(int argc, char** argv) {
       s.pitch_bias = a.number(f);
     } else if (f == "--scale-error") {
       s.scale_error = a.number(f);
+    } else if (f == "--pose-jitter") {
+      s.slam_errors.pose_jitter = a.number(f);
     } else if (f == "--odom-type") {
       o.odom_type = a.text(f);
       if (o.odom_type != "odometry" && o.odom_type != "pose" && o.odom_type != "path") {
