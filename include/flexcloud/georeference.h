@@ -12,6 +12,7 @@
 #include "flexcloud/fusion/clock_offset.h"
 #include "flexcloud/fusion/fusion.h"
 #include "flexcloud/input/gnss.h"
+#include "flexcloud/input/jitter_smoothing.h"
 #include "flexcloud/input/trajectory.h"
 #include "flexcloud/params.h"
 #include "flexcloud/sheet/alignment.h"
@@ -104,6 +105,11 @@ struct GeoreferenceResult {
   RevisitCheck revisits;
   /// How far each pose of `rubbersheet` may lie from the truth (pose_sigma.h).
   PoseSigmas sigma;
+  /// The SLAM's white jitter from pose to pose as measured, and the smoothing that took it out
+  /// of `rubbersheet` and the fused trajectory (with params.smooth_jitter), and per pose what is
+  /// left of it there (m, per horizontal axis; 0 where none is seen).
+  JitterSmoothing jitter;
+  std::vector<double> jitter_left;
   StageSeconds seconds;
 };
 

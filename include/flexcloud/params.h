@@ -50,7 +50,8 @@ struct Params {
   double lever_arm_x;
   double lever_arm_y;
   double lever_arm_z;
-  // The choice of method by leave-out.
+  // The SLAM's white jitter from pose to pose, out of the trajectories (jitter_smoothing.h).
+  bool smooth_jitter;
   // Keyframe interpolation.
   InterpolationMode interpolation;
   double min_spacing;

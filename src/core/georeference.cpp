@@ -838,6 +838,21 @@ Params thresholdInUse(const Params& params, GeoreferenceResult& r) {
   return lifted;
 }
 
+/// The SLAM's white jitter from pose to pose (jitter_smoothing.h), which the sheet and the fused
+/// trajectory carry from the poses as every smooth correction does: measured, and with
+/// smooth_jitter taken out of both, but where the SLAM jumped.
+void smoothTrajectories(const Params& params, GeoreferenceResult& r) {
+  // The fixes at their stamps as given: those stamped as a pose is (resampled at the poses,
+  // or written with the same made-up clock) share the stamps' errors with it.
+  r.jitter = measureJitter(r.aligned, r.gnss.points);
+  r.jitter_left.assign(r.poses.size(), r.jitter.seen ? r.jitter.white : 0.0);
+  if (!params.smooth_jitter) return;
+  const std::vector<bool> keep = r.fusion ? r.fusion->jumped : std::vector<bool>{};
+  const std::vector<double> left = smoothJitter(r.rubbersheet, r.jitter.half_width, keep);
+  if (r.fusion) smoothJitter(r.fusion->poses, r.jitter.half_width, keep);
+  for (std::size_t i = 0; i < left.size(); ++i) r.jitter_left[i] *= left[i];
+}
+
 }  // namespace
 
 GeoreferenceResult georeference(const DriveInput& input, const Params& given,
@@ -868,6 +883,7 @@ GeoreferenceResult georeference(const DriveInput& input, const Params& given,
   cancel.check("georeferencing");
 
   r.rubbersheet = warpTrajectory(*r.sheet, r.poses);
+  smoothTrajectories(params, r);
   const Eigen::Vector3d lever(params.lever_arm_x, params.lever_arm_y, params.lever_arm_z);
   r.metrics_aligned = deviationFromGnss(r.aligned, r.gnss_at_pose, lever);
   r.metrics_rubbersheet = deviationFromGnss(r.rubbersheet, r.gnss_at_pose, lever);
@@ -888,6 +904,8 @@ GeoreferenceResult georeference(const DriveInput& input, const Params& given,
   sigma_context.fused = r.fusion && r.method == Method::kFusion ? &r.fusion->poses : nullptr;
   sigma_context.clock_sigma = estimatedClockSigma(r);
   sigma_context.lever_arm = r.fusion ? r.fusion->lever_arm : lever;
+  sigma_context.jitter = &r.jitter_left;
+  sigma_context.slam_white = r.jitter.seen ? r.jitter.white : 0.0;
   r.sigma = poseSigmas(r.rubbersheet, r.aligned, sigmaFixes(r, params), sigma_context);
   // A control point on the fused trajectory takes the sigma of its pose (3D) as its std-dev.
   if (r.method == Method::kFusion) {

@@ -96,6 +96,11 @@ ParamTable<P> makeTable() {
                  "GNSS antenna in the body frame of the poses, left"),
       realRow<P>("lever_arm_z", &P::lever_arm_z, 0.0, -10, 10, "m",
                  "GNSS antenna in the body frame of the poses, up"),
+      boolRow<P>("smooth_jitter", &P::smooth_jitter, true,
+                 "Take the SLAM's white jitter from pose to pose out of the trajectories (a "
+                 "local cubic over at most 1 s) where its poses show it beyond their motion; the "
+                 "map and its sheet are not changed",
+                 live),
       interpolationRow(),
       realRow<P>("min_spacing", &P::min_spacing, 1.0, 0.0, 100, "m",
                  "Minimum distance between the GNSS points that support the spline", live),

@@ -313,6 +313,11 @@ std::string reportJson(const GeoreferenceResult& r, const Params& params, const 
   j["uncertainty"]["beyond_max_sigma_h"] =
       params.max_sigma_h > 0.0 && r.sigma.worst.sigma_h > params.max_sigma_h;
   j["clock"] = clockJson(r, params);
+  j["slam_jitter"] = {{"smoothed", r.jitter.half_width > 0},
+                      {"white_m", r.jitter.white},
+                      {"motion_m", r.jitter.motion},
+                      {"own_share", r.jitter.own_share},
+                      {"half_width_poses", r.jitter.half_width}};
   if (r.fusion) {
     if (r.method == Method::kFusion) j["metrics"]["rubbersheet_vs_fused"] = stats(r.metrics_fused);
     j["fusion"] = fusionJson(*r.fusion);

@@ -110,6 +110,7 @@ Params published(int control_points) {
   Params p;
   p.fusion = false;
   p.max_time_offset = 0.0;  // the GNSS at the poses' stamps as given
+  p.smooth_jitter = false;
   p.refine_fraction = 0.0;
   p.control_points = control_points;
   p.default_std_dev = 0.05;  // fixes without covariance pass the std-dev threshold

@@ -169,6 +169,7 @@ void printRealDriveRows(const std::string& dir, std::size_t every, int control_p
   };
   Params published = make(false, 0.0);
   published.max_time_offset = 0.0;  // the GNSS at the poses' stamps as given
+  published.smooth_jitter = false;
   run("published method", published);
   run("fusion: false", make(false, Params().refine_fraction));
   const Params defaults = make(true, Params().refine_fraction);

@@ -87,6 +87,7 @@ Params publishedMethod(int control_points) {
   p.control_points = control_points;
   p.refine_fraction = 0.0;
   p.max_time_offset = 0.0;
+  p.smooth_jitter = false;
   p.default_std_dev = 0.03;  // urban GNSS gives none
   return p;
 }

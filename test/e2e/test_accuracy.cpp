@@ -46,6 +46,7 @@ Params published() {
   Params p;
   p.fusion = false;
   p.max_time_offset = 0.0;  // the GNSS at the poses' stamps as given
+  p.smooth_jitter = false;
   p.refine_fraction = 0.0;
   return p;
 }

@@ -33,6 +33,7 @@ Params published() {
   Params p;
   p.fusion = false;
   p.max_time_offset = 0.0;  // the GNSS at the poses' stamps as given
+  p.smooth_jitter = false;
   p.refine_fraction = 0.0;
   p.default_std_dev = 0.05;
   return p;

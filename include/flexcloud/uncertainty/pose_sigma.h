@@ -61,6 +61,12 @@ struct SigmaContext {
   double clock_sigma = 0.0;
   /// The GNSS antenna in the body frame, m: the fixes are the antenna's, the poses the body's.
   Eigen::Vector3d lever_arm = Eigen::Vector3d::Zero();
+  /// The SLAM's white jitter from pose to pose, m per horizontal axis: in every fix's residual
+  /// from the aligned SLAM beside the fix's own noise.
+  double slam_white = 0.0;
+  /// Per pose (null: none), m per horizontal axis: the SLAM's white jitter left in its position,
+  /// which no smooth correction takes out.
+  const std::vector<double>* jitter = nullptr;
 };
 
 /// The sigmas of `result` (ENU, SLAM clock), whose rigid part is `aligned` (the same poses

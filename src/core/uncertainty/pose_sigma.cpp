@@ -20,6 +20,18 @@ constexpr double kMeanResidualH = 0.95;
 constexpr double kWalkV = 0.87;
 constexpr double kScatterV = 0.66;
 constexpr double kMeanResidualV = 1.0;
+// Where the SLAM's white jitter was smoothed out of the result (jitter_smoothing.h) and the fixes
+// are precise (RTK), the walk's weights, horizontal and of the vertical walk and scatter: the
+// walk, learned from the fixes less the jittery SLAM, holds some of the jitter (what persists
+// from one scan to the next, which the third differences do not see as white) that the
+// smoothing took out. Calibrated on the KITTI RTK drives and the simulated ones with 1.5 cm of
+// jitter (doc/ACCURACY.md). Full below kPreciseStd of the fixes' own 1-sigma (their weighted
+// mean near the pose, the jitter included), none beyond kImpreciseStd, log-linear between.
+constexpr double kWalkPreciseH = 0.6;
+constexpr double kWalkPreciseV = 0.8;
+constexpr double kSmoothedShare = 0.999;
+constexpr double kPreciseStd = 0.05;   // m
+constexpr double kImpreciseStd = 0.1;  // m
 constexpr double kWindow = 10.0;       // m of path: the Gaussian window of the local residuals
 constexpr double kTimeMetres = 0.1;    // m of path per second: a standstill still counts
 constexpr double kStretchShare = 0.5;  // the worst stretch: poses at half its sigma or more
@@ -105,6 +117,7 @@ std::vector<double> atPoses(const AxisSeries& a, const walk::Intensity& q) {
 /// from the fixes, it is what tells).
 struct LocalResiduals {
   std::vector<double> mean_h2, scatter_v2, mean_v2;
+  std::vector<double> std_h;  ///< the fixes' own horizontal 1-sigma, their weighted mean
 };
 
 LocalResiduals localResiduals(const std::vector<double>& pose_s, const std::vector<double>& fix_s,
@@ -112,11 +125,12 @@ LocalResiduals localResiduals(const std::vector<double>& pose_s, const std::vect
                               const std::vector<double>& var_h) {
   LocalResiduals out{std::vector<double>(pose_s.size(), 0.0),
                      std::vector<double>(pose_s.size(), 0.0),
-                     std::vector<double>(pose_s.size(), 0.0)};
+                     std::vector<double>(pose_s.size(), 0.0),
+                     std::vector<double>(pose_s.size(), std::numeric_limits<double>::infinity())};
   std::size_t lo = 0;
   for (std::size_t i = 0; i < pose_s.size(); ++i) {
     while (lo < fix_s.size() && fix_s[lo] < pose_s[i] - 4.0 * kWindow) ++lo;
-    double sw = 0.0, sw2 = 0.0, sv2 = 0.0, sz = 0.0, noise_h = 0.0;
+    double sw = 0.0, sw2 = 0.0, sv2 = 0.0, sz = 0.0, noise_h = 0.0, sd = 0.0;
     Eigen::Vector2d sr = Eigen::Vector2d::Zero();
     for (std::size_t j = lo; j < fix_s.size() && fix_s[j] <= pose_s[i] + 4.0 * kWindow; ++j) {
       const double d = (fix_s[j] - pose_s[i]) / kWindow;
@@ -126,13 +140,24 @@ LocalResiduals localResiduals(const std::vector<double>& pose_s, const std::vect
       sv2 += w * residual[j].z() * residual[j].z();
       sz += w * residual[j].z();
       noise_h += w * w * var_h[j];
+      sd += w * std::sqrt(var_h[j]);
     }
     if (sw < 1e-9) continue;  // no fix near: the walk's growth speaks
     out.mean_h2[i] = std::max(0.0, (sr / sw).squaredNorm() - 2.0 * noise_h / (sw * sw)) / 2.0;
     out.scatter_v2[i] = sv2 / sw / (sw * sw / sw2);
     out.mean_v2[i] = (sz / sw) * (sz / sw);
+    out.std_h[i] = sd / sw;
   }
   return out;
+}
+
+/// The weight `imprecise` where the fixes near a pose have a 1-sigma (`std_h`) beyond
+/// kImpreciseStd, `precise` below kPreciseStd, log-linear between.
+double weightFor(double std_h, double precise, double imprecise) {
+  if (!(std_h > kPreciseStd)) return precise;
+  if (std_h >= kImpreciseStd) return imprecise;
+  const double u = std::log(std_h / kPreciseStd) / std::log(kImpreciseStd / kPreciseStd);
+  return precise + u * (imprecise - precise);
 }
 
 double quantile(std::vector<double> v, double q) {
@@ -168,29 +193,68 @@ void toBody(const Trajectory& result, const Eigen::Vector3d& lever, std::vector<
 }
 
 /// The fixes on the poses' paths: their place on the aligned SLAM's path and the result's, their
-/// residuals from the aligned SLAM (per axis) and from the result, their variances.
+/// residuals from the aligned SLAM (per axis) and from the trajectory the result `followed`
+/// (the fused one; what the sheet left of it counts on its own), their variances.
 struct FixTable {
   std::vector<double> along, result_s, x, y, z, var_h, var_v;
   std::vector<Eigen::Vector3d> residual;
 };
 
 FixTable fixTable(const std::vector<SigmaFix>& fixes, const Trajectory& result,
-                  const Trajectory& aligned, const std::vector<double>& pose_along) {
+                  const Trajectory& followed, const Trajectory& aligned,
+                  const std::vector<double>& pose_along, double slam_white) {
   FixTable t;
   const std::vector<double> result_s = pathLength(result);
   const std::vector<Eigen::Vector3d> aligned_p = positionsOf(aligned),
-                                     result_p = positionsOf(result);
+                                     followed_p = positionsOf(followed);
   std::size_t k1 = 0, k2 = 0, k3 = 0, k4 = 0;
   for (const SigmaFix& f : fixes) {
     t.along.push_back(at(aligned, pose_along, f.t, k1));
     const Eigen::Vector3d r = f.position - at(aligned, aligned_p, f.t, k2);
     t.x.push_back(r.x()), t.y.push_back(r.y()), t.z.push_back(r.z());
-    t.var_h.push_back(std::pow(std::max(f.std_h, 1e-3), 2));
+    t.var_h.push_back(std::pow(std::max(f.std_h, 1e-3), 2) + slam_white * slam_white);
     t.var_v.push_back(std::pow(std::max(f.std_v, 1e-3), 2));
     t.result_s.push_back(at(result, result_s, f.t, k3));
-    t.residual.push_back(f.position - at(result, result_p, f.t, k4));
+    t.residual.push_back(f.position - at(followed, followed_p, f.t, k4));
   }
   return t;
+}
+
+/// What the sigmas of the poses are made of (poseSigmas).
+struct Terms {
+  std::vector<double> walk_h, walk_v;
+  LocalResiduals local;
+};
+
+/// Every pose's sigmas from `terms`, the sheet's departure from the fused trajectory, the SLAM's
+/// jitter left in it and the speed times the clock's sigma (SigmaContext).
+void combine(const Trajectory& result, const Terms& terms, const SigmaContext& context,
+             PoseSigmas& out) {
+  const std::vector<double> v = speeds(result);
+  const Trajectory* fused =
+      context.fused != nullptr && context.fused->size() == result.size() ? context.fused : nullptr;
+  for (std::size_t i = 0; i < result.size(); ++i) {
+    // The clock's error moves a pose along the track: one of the two horizontal axes.
+    const double clock = v[i] * context.clock_sigma;
+    // What the sheet left of the fused trajectory adds in full.
+    const Eigen::Vector3d sheet = fused != nullptr
+                                      ? Eigen::Vector3d(result[i].position - (*fused)[i].position)
+                                      : Eigen::Vector3d::Zero();
+    const double jitter =
+        context.jitter != nullptr && i < context.jitter->size() ? (*context.jitter)[i] : 0.0;
+    // Smoothed: less of the SLAM's jitter left than it showed.
+    const bool smoothed = jitter < kSmoothedShare * context.slam_white;
+    const LocalResiduals& local = terms.local;
+    const double wh = smoothed ? weightFor(local.std_h[i], kWalkPreciseH, kWalkH) : kWalkH;
+    const double wv = smoothed ? weightFor(local.std_h[i], kWalkPreciseV, 1.0) : 1.0;
+    out.h.push_back(
+        std::sqrt(wh * wh * terms.walk_h[i] + kMeanResidualH * kMeanResidualH * local.mean_h2[i] +
+                  sheet.head<2>().squaredNorm() / 2.0 + clock * clock / 2.0 + jitter * jitter));
+    out.v.push_back(std::sqrt(
+        wv * wv *
+            (kWalkV * kWalkV * terms.walk_v[i] + kScatterV * kScatterV * local.scatter_v2[i]) +
+        kMeanResidualV * kMeanResidualV * local.mean_v2[i] + sheet.z() * sheet.z()));
+  }
 }
 
 }  // namespace
@@ -218,9 +282,10 @@ PoseSigmas poseSigmas(const Trajectory& result, const Trajectory& aligned,
     pose_along[i] += kTimeMetres * (aligned[i].stamp - first);
   }
   toBody(result, context.lever_arm, fixes);
-  const FixTable t = fixTable(fixes, result, aligned, pose_along);
+  const bool fused = context.fused != nullptr && context.fused->size() == result.size();
+  const FixTable t = fixTable(fixes, result, fused ? *context.fused : result, aligned, pose_along,
+                              context.slam_white);
   const AxisSeries x = axisSeries(t.along, t.x, t.var_h, pose_along);
-  const AxisSeries y = axisSeries(t.along, t.y, t.var_h, pose_along);
   const AxisSeries z = axisSeries(t.along, t.z, t.var_v, pose_along);
   // Learned from the fixes alone: the poses' places add nothing to the likelihood.
   const walk::Intensity qh =
@@ -230,22 +295,7 @@ PoseSigmas poseSigmas(const Trajectory& result, const Trajectory& aligned,
   out.walk_v = qv.value, out.walk_rate_v = qv.rate;
   const std::vector<double> walk_h = atPoses(x, qh), walk_v = atPoses(z, qv);
   const LocalResiduals local = localResiduals(pathLength(result), t.result_s, t.residual, t.var_h);
-  const std::vector<double> v = speeds(result);
-  for (std::size_t i = 0; i < result.size(); ++i) {
-    // The clock's error moves a pose along the track: one of the two horizontal axes.
-    const double clock = v[i] * context.clock_sigma;
-    const Trajectory* fused = context.fused;
-    // What the sheet left of the fused trajectory adds in full.
-    const Eigen::Vector3d sheet = fused != nullptr && fused->size() == result.size()
-                                      ? Eigen::Vector3d(result[i].position - (*fused)[i].position)
-                                      : Eigen::Vector3d::Zero();
-    out.h.push_back(std::sqrt(kWalkH * kWalkH * walk_h[i] +
-                              kMeanResidualH * kMeanResidualH * local.mean_h2[i] +
-                              sheet.head<2>().squaredNorm() / 2.0 + clock * clock / 2.0));
-    out.v.push_back(
-        std::sqrt(kWalkV * kWalkV * walk_v[i] + kScatterV * kScatterV * local.scatter_v2[i] +
-                  kMeanResidualV * kMeanResidualV * local.mean_v2[i] + sheet.z() * sheet.z()));
-  }
+  combine(result, {walk_h, walk_v, local}, context, out);
   summarise(result, out);
   return out;
 }
