@@ -103,7 +103,7 @@ TEST(TruthDrives, HonestRtkGnssIsFollowedAtLeastAsCloselyAsBySheetAlone) {
   }
 }
 
-// KITTI's LiDAR odometry puts every pose 1.2-2.0 cm off a smooth path, each by an error of its
+// KITTI's LiDAR odometry puts every pose 1.1-2.0 cm off a smooth path, each by an error of its
 // own (its truth: 0.1-0.2 cm), which every smooth correction carries into the result: measured
 // and taken out by a local cubic over 0.8-1 s, the defaults come closer to the truth on every
 // RTK drive, by a third together (01: 0.024 -> 0.016 m RMSE; 02, where the sheet's folds lead,

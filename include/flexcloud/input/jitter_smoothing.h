@@ -1,6 +1,6 @@
 #pragma once
 // A SLAM's white jitter from pose to pose: scan matching puts every pose a centimetre or two off
-// a smooth path, each by an error of its own (KITTI's LiDAR odometry: 1.2-2.0 cm per axis at
+// a smooth path, each by an error of its own (KITTI's LiDAR odometry: 1.1-2.0 cm per axis at
 // 10 Hz, its truth 0.1-0.2 cm). No smooth correction (the fusion's, the sheet's) takes it out;
 // the vehicle's own path is smooth over a second, so a local cubic in time does.
 

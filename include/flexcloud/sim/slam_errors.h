@@ -39,7 +39,7 @@ struct SlamErrors {
   double keyframe_min_m = 0.0;
   double keyframe_max_m = 0.0;
   /// White noise on every pose's position, m per axis: scan matching's error of each scan,
-  /// which the next scan does not carry on (KITTI's LiDAR odometry: 1.2-2.0 cm at 10 Hz).
+  /// which the next scan does not carry on (KITTI's LiDAR odometry: 1.1-2.0 cm at 10 Hz).
   double pose_jitter = 0.0;
 };
 
