@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -125,6 +126,25 @@ TEST(JitterSmoothing, PosesKeptAreNeitherMovedNorSpanned) {
   // No window reaches across the jump: the poses beside it keep their side's level.
   EXPECT_LT(std::abs(smoothed[298].position.x() - truth[298].position.x()), 0.05);
   EXPECT_LT(std::abs(smoothed[301].position.x() - truth[301].position.x() - 0.5), 0.05);
+}
+
+TEST(JitterSmoothing, APoseWithoutAFinitePositionSpreadsNothing) {
+  const Trajectory truth = smoothDrive(10.0, 60.0);
+  Trajectory jittery = withJitter(truth, 0.015, 17);
+  jittery[200].position.x() = std::numeric_limits<double>::quiet_NaN();
+  const JitterSmoothing s = measureJitter(jittery);
+  ASSERT_GE(s.half_width, 2);
+  Trajectory smoothed = jittery;
+  smoothJitter(smoothed, s.half_width);
+  EXPECT_TRUE(std::isnan(smoothed[200].position.x()));
+  for (std::size_t i = 0; i < smoothed.size(); ++i) {
+    if (i != 200) {
+      ASSERT_TRUE(smoothed[i].position.allFinite()) << i;
+    }
+  }
+  EXPECT_LT(rmsH(Trajectory(smoothed.begin(), smoothed.begin() + 190),
+                 Trajectory(truth.begin(), truth.begin() + 190)),
+            0.6 * 0.015);
 }
 
 }  // namespace

@@ -88,7 +88,10 @@ int crossValidatedHalfWidth(const Trajectory& t, int most) {
     for (std::size_t i = m; i + m < t.size(); ++i) {
       const auto kk = static_cast<std::size_t>(k);
       if (t[i + m].stamp - t[i - m].stamp > kMostSpan + kStampSlack) continue;
-      sum += (t[i].position - cubicAt(t, i - kk, 2 * kk + 1, i, t[i].stamp)).squaredNorm();
+      const double e =
+          (t[i].position - cubicAt(t, i - kk, 2 * kk + 1, i, t[i].stamp)).squaredNorm();
+      if (!std::isfinite(e)) continue;
+      sum += e;
       ++n;
     }
     if (n > 0 && sum / static_cast<double>(n) < best)
@@ -179,7 +182,12 @@ std::vector<double> smoothJitter(Trajectory& t, int half_width, const std::vecto
   std::vector<double> left(t.size(), 1.0);
   if (half_width < kLeastHalfWidth) return left;
   const Trajectory given = t;
-  for (const Run& run : runsBetween(t.size(), keep)) {
+  // A pose without a finite position stays as it is and no window spans it.
+  std::vector<bool> kept(t.size(), false);
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    kept[i] = (i < keep.size() && keep[i]) || !t[i].position.allFinite();
+  }
+  for (const Run& run : runsBetween(t.size(), kept)) {
     for (std::size_t i = run.begin; i < run.end; ++i) {
       int k = half_width;
       const std::optional<std::size_t> lo = windowStart(given, run, i, k);
