@@ -846,7 +846,10 @@ void smoothTrajectories(const Params& params, GeoreferenceResult& r) {
   // or written with the same made-up clock) share the stamps' errors with it.
   r.jitter = measureJitter(r.aligned, r.gnss.points);
   r.jitter_left.assign(r.poses.size(), r.jitter.seen ? r.jitter.white : 0.0);
-  if (!params.smooth_jitter) return;
+  if (!params.smooth_jitter) {
+    r.jitter.half_width = 0;  // measured, not smoothed
+    return;
+  }
   const std::vector<bool> keep = r.fusion ? r.fusion->jumped : std::vector<bool>{};
   const std::vector<double> left = smoothJitter(r.rubbersheet, r.jitter.half_width, keep);
   if (r.fusion) smoothJitter(r.fusion->poses, r.jitter.half_width, keep);

@@ -318,6 +318,14 @@ std::string clockPart(const GeoreferenceResult& r) {
   return s;
 }
 
+/// The SLAM's jitter taken out of the trajectories, if it was: ", SLAM jitter 1.3 cm smoothed".
+std::string jitterPart(const GeoreferenceResult& r) {
+  if (r.jitter.half_width == 0) return "";
+  char s[64];
+  std::snprintf(s, sizeof(s), ", SLAM jitter %.1f cm smoothed", 100.0 * r.jitter.white);
+  return s;
+}
+
 void printSummary(const GeoreferenceResult& r, const Params& params, const MapInfo* map,
                   const std::string& out, const std::string& map_frame) {
   char line[512];
@@ -335,9 +343,10 @@ void printSummary(const GeoreferenceResult& r, const Params& params, const MapIn
       line, sizeof(line),
       "  trajectory vs truth  sigma per axis: median %.3f m, 95th percentile %.3f m (the 95 %% "
       "circle: 2.45 sigma); least certain %.3f m at %.1f-%.1f s; %s, rigid "
-      "scale %.4f, %s, %s\n",
+      "scale %.4f, %s%s, %s\n",
       r.sigma.median_h, r.sigma.p95_h, r.sigma.worst.sigma_h, r.sigma.worst.from, r.sigma.worst.to,
-      toString(r.method).c_str(), r.scale, rejectedShare(r).c_str(), clockPart(r).c_str());
+      toString(r.method).c_str(), r.scale, rejectedShare(r).c_str(), jitterPart(r).c_str(),
+      clockPart(r).c_str());
   std::cout << line;
   const auto& a = r.metrics_aligned;
   const auto& b = r.metrics_rubbersheet;

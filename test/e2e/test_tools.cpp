@@ -47,6 +47,10 @@ class Tools : public ::testing::Test {
   static std::string sim() { return (dir_ / "sim").string(); }
   static std::string out(const std::string& name) { return (dir_ / name).string(); }
   static std::string datum() { return " --datum 48.2620 11.6670 480.0"; }  // the simulator's
+  /// A drive of its own into `drive`, simulate_drive's options `args`; whether it was written.
+  static bool simulate(const std::string& drive, const std::string& args) {
+    return sh(bin("simulate_drive") + " --out " + drive + " " + args).code == 0;
+  }
   /// Runs the tool on the simulated drive with `map` into out(name); returns the largest
   /// distance between its warped points and those of the same run on the binary map.
   static double warpedAgainstBinary(const std::string& map, const std::string& name) {
@@ -113,6 +117,41 @@ void expectSigmasCoverTheTruth(const std::string& sim, const std::string& o,
   const auto lead = output.find("trajectory vs truth  sigma per axis: median ");
   ASSERT_NE(lead, std::string::npos) << output;
   EXPECT_LT(lead, output.find("fit to the GNSS     aligned: MAE"));
+}
+
+/// A SLAM whose poses jitter by 1.5 cm each (simulate_drive --pose-jitter): the summary says it
+/// was smoothed and how much, report.json gives it, and the trajectory lies closer to the truth
+/// than with smooth_jitter false. Without jitter (the fixture's drive), the summary says nothing.
+TEST_F(Tools, TheSummarySaysTheSlamsJitterWasSmoothed) {
+  const std::string drive = out("jittery");
+  ASSERT_TRUE(simulate(drive, "--map-points 1000 --seed 4 --pose-jitter 0.015"));
+  const auto rmse = [&](const std::string& o) {
+    const auto traj = readRows(o + "/trajectory_rubbersheet.txt");
+    const auto truth = readRows(drive + "/truth_trajectory.txt");
+    double sum = 0.0;
+    for (std::size_t i = 0; i < traj.size(); ++i) {
+      sum += std::pow(traj[i][1] - truth[i][1], 2) + std::pow(traj[i][2] - truth[i][2], 2);
+    }
+    return std::sqrt(sum / static_cast<double>(traj.size()));
+  };
+  const std::string args = " --bag " + drive + "/drive.bag" + datum() + " --set report_png=false";
+  const Result r = sh(bin("georeference") + args + " --out " + out("jittery_out"));
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("fixes rejected, SLAM jitter 1.5 cm smoothed, clock offset"),
+            std::string::npos)
+      << r.output;
+  const nlohmann::json j = readJson(out("jittery_out") + "/report.json")["slam_jitter"];
+  EXPECT_TRUE(j["smoothed"].get<bool>());
+  EXPECT_NEAR(j["white_m"].get<double>(), 0.015, 0.0015);
+  const Result raw =
+      sh(bin("georeference") + args + " --set smooth_jitter=false --out " + out("jittery_raw"));
+  ASSERT_EQ(raw.code, 0) << raw.output;
+  EXPECT_EQ(raw.output.find("cm smoothed"), std::string::npos) << raw.output;
+  EXPECT_LT(rmse(out("jittery_out")), 0.7 * rmse(out("jittery_raw")));
+  const Result smooth = sh(bin("georeference") + " -q --bag " + sim() + "/drive.bag" + datum() +
+                           " --set report_png=false --out " + out("smooth_out"));
+  ASSERT_EQ(smooth.code, 0) << smooth.output;
+  EXPECT_EQ(smooth.output.find("cm smoothed"), std::string::npos) << smooth.output;
 }
 
 TEST_F(Tools, BagWithMapGivesEveryOutputAndAccurateMap) {
@@ -311,10 +350,7 @@ TEST_F(Tools, TextFilesAsUsersWriteThem) {
 /// the threshold's error gives the fixes' std-devs and a value that works.
 TEST_F(Tools, OrdinaryGnssWorksWithTheDefaults) {
   const std::string drive = out("ordinary");
-  ASSERT_EQ(sh(bin("simulate_drive") + " --out " + drive +
-               " --gnss-noise 1.0 2.0 --map-points 50000 --seed 3")
-                .code,
-            0);
+  ASSERT_TRUE(simulate(drive, "--gnss-noise 1.0 2.0 --map-points 50000 --seed 3"));
   const std::string run = bin("georeference") + " -q --bag " + drive + "/drive.bag --map " + drive +
                           "/map.pcd --truth " + drive + "/truth_map.pcd" + datum() +
                           " --set report_png=false --out " + out("ordinary_out");
