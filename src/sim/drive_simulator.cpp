@@ -164,6 +164,7 @@ std::string validate(const SimParams& p) {
           s.closure_min_m > 0.0 && s.closure_min_m <= s.closure_max_m && s.keyframe_min_m >= 0.0 &&
           s.keyframe_min_m <= s.keyframe_max_m,
       "SLAM errors: shares in [0, 1], factors at least 1, ranges ordered, grade within 0.1");
+  req(s.pose_jitter >= 0.0 && s.pose_jitter <= 1.0, "SLAM pose jitter must be in [0, 1] m");
   req(e.correlated_m >= 0.0 && e.correlated_tau_s > 0.0,
       "GNSS correlated error must not be negative, its time constant positive");
   req(isValidGeodetic(p.datum.lat, p.datum.lon, p.datum.alt), "datum is not a valid position");

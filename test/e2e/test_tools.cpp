@@ -741,6 +741,12 @@ TEST_F(Tools, SimulatorRejectsBadSettings) {
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.output.find("length must be in"), std::string::npos) << r.output;
   EXPECT_EQ(sh(bin("simulate_drive") + " --speed fast").code, 2);
+  const Result jitter =
+      sh(bin("simulate_drive") + " --out " + out("badjitter") + " --pose-jitter -0.01");
+  EXPECT_EQ(jitter.code, 1);
+  EXPECT_NE(jitter.output.find("SLAM pose jitter must be in [0, 1] m"), std::string::npos)
+      << jitter.output;
+  EXPECT_FALSE(fs::exists(out("badjitter")));
 }
 
 /// --point-sigma: every point of the map and of the Autoware tiles gains sigma_h and sigma_v

@@ -46,7 +46,7 @@ JitterSmoothing measureJitter(const Trajectory& poses, const std::vector<GnssPoi
 double ownJitterShare(const Trajectory& aligned, const std::vector<GnssPoint>& fixes, double white);
 
 /// `t`'s positions, each the local cubic in time through the 2 `half_width` + 1 poses around
-/// it (shifted to stay within the trajectory, narrowed to kMostSpan, at least five poses);
+/// it (shifted to stay within the trajectory, narrowed to kMostSpan, five to 17 poses);
 /// orientations stay. Poses with `keep[i]` set (a SLAM jump next to them) stay as they are
 /// and no window spans them. `t` sorted by stamp. Returns per pose the share of white jitter
 /// left in its position (the norm of its cubic's weights; 1 where it stays as it was).

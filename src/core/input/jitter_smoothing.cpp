@@ -52,11 +52,15 @@ std::optional<std::size_t> windowStart(const Trajectory& t, const Run& run, std:
   return std::nullopt;
 }
 
+/// A window's weights, on the stack: at most 2 kMostHalfWidth + 1 poses.
+using Weights = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 2 * kMostHalfWidth + 1, 1>;
+
 /// The weights of poses [lo, lo + n) (0 for `skip`) in their least-squares cubic in time at
-/// stamp `at`.
-Eigen::VectorXd cubicWeights(const Trajectory& t, std::size_t lo, std::size_t n, std::size_t skip,
-                             double at) {
-  Eigen::MatrixXd p = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(n), 4);
+/// stamp `at`; n at most 2 kMostHalfWidth + 1.
+Weights cubicWeights(const Trajectory& t, std::size_t lo, std::size_t n, std::size_t skip,
+                     double at) {
+  using Rows = Eigen::Matrix<double, Eigen::Dynamic, 4, 0, 2 * kMostHalfWidth + 1, 4>;
+  Rows p = Rows::Zero(static_cast<Eigen::Index>(n), 4);
   for (std::size_t j = lo; j < lo + n; ++j) {
     if (j == skip) continue;
     const double u = (t[j].stamp - at) / kMostSpan;  // well conditioned: |u| <= 1
@@ -69,7 +73,7 @@ Eigen::VectorXd cubicWeights(const Trajectory& t, std::size_t lo, std::size_t n,
 /// The cubic's value at `at` (cubicWeights).
 Eigen::Vector3d cubicAt(const Trajectory& t, std::size_t lo, std::size_t n, std::size_t skip,
                         double at) {
-  const Eigen::VectorXd w = cubicWeights(t, lo, n, skip, at);
+  const Weights w = cubicWeights(t, lo, n, skip, at);
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   for (std::size_t j = lo; j < lo + n; ++j)
     sum += w(static_cast<Eigen::Index>(j - lo)) * t[j].position;
@@ -83,10 +87,10 @@ int crossValidatedHalfWidth(const Trajectory& t, int most) {
   double best = std::numeric_limits<double>::infinity();
   int chosen = 0;
   for (int k = kLeastHalfWidth; k <= most; ++k) {
+    const auto kk = static_cast<std::size_t>(k);
     double sum = 0.0;
     std::size_t n = 0;
     for (std::size_t i = m; i + m < t.size(); ++i) {
-      const auto kk = static_cast<std::size_t>(k);
       if (t[i + m].stamp - t[i - m].stamp > kMostSpan + kStampSlack) continue;
       const double e =
           (t[i].position - cubicAt(t, i - kk, 2 * kk + 1, i, t[i].stamp)).squaredNorm();
@@ -181,6 +185,7 @@ JitterSmoothing measureJitter(const Trajectory& poses, const std::vector<GnssPoi
 std::vector<double> smoothJitter(Trajectory& t, int half_width, const std::vector<bool>& keep) {
   std::vector<double> left(t.size(), 1.0);
   if (half_width < kLeastHalfWidth) return left;
+  half_width = std::min(half_width, kMostHalfWidth);
   const Trajectory given = t;
   // A pose without a finite position stays as it is and no window spans it.
   std::vector<bool> kept(t.size(), false);
@@ -193,7 +198,7 @@ std::vector<double> smoothJitter(Trajectory& t, int half_width, const std::vecto
       const std::optional<std::size_t> lo = windowStart(given, run, i, k);
       if (!lo) continue;
       const auto n = static_cast<std::size_t>(2 * k + 1);
-      const Eigen::VectorXd w = cubicWeights(given, *lo, n, given.size(), given[i].stamp);
+      const Weights w = cubicWeights(given, *lo, n, given.size(), given[i].stamp);
       t[i].position.setZero();
       for (std::size_t j = 0; j < n; ++j) {
         t[i].position += w(static_cast<Eigen::Index>(j)) * given[*lo + j].position;

@@ -293,9 +293,9 @@ PoseSigmas poseSigmas(const Trajectory& result, const Trajectory& aligned,
   const walk::Intensity qv = walk::learnIntensity({fixSeries(t.along, t.z, t.var_v)});
   out.walk_h = qh.value, out.walk_rate_h = qh.rate;
   out.walk_v = qv.value, out.walk_rate_v = qv.rate;
-  const std::vector<double> walk_h = atPoses(x, qh), walk_v = atPoses(z, qv);
-  const LocalResiduals local = localResiduals(pathLength(result), t.result_s, t.residual, t.var_h);
-  combine(result, {walk_h, walk_v, local}, context, out);
+  const Terms terms{atPoses(x, qh), atPoses(z, qv),
+                    localResiduals(pathLength(result), t.result_s, t.residual, t.var_h)};
+  combine(result, terms, context, out);
   summarise(result, out);
   return out;
 }
