@@ -710,14 +710,28 @@ std::vector<GnssPoint> controlPointFixes(const Params& params, const Georeferenc
   return out;
 }
 
+/// What a reported 1-sigma holds beyond the white noise `white` (0 where not finite).
+double beyond(double reported, double white) {
+  const double d = reported * reported - white * white;
+  return std::isfinite(d) && d > 0.0 ? std::sqrt(d) : 0.0;
+}
+
 }  // namespace
 
 std::vector<SigmaFix> sigmaFixes(const GeoreferenceResult& r, const Params& params) {
   std::vector<SigmaFix> out;
   if (r.fusion && r.method == Method::kFusion) {
-    for (const FixOutcome& f : r.fusion->fixes) {
+    const std::vector<FixOutcome>& fixes = r.fusion->fixes;
+    for (std::size_t j = 0; j < fixes.size(); ++j) {
+      const FixOutcome& f = fixes[j];
       if (f.verdict != FixVerdict::kUsed) continue;
-      out.push_back({f.stamp + r.fusion->time_offset, f.position, f.std_dev.x(), f.std_dev.z()});
+      SigmaFix s{f.stamp + r.fusion->time_offset, f.position, f.std_dev.x(), f.std_dev.z()};
+      if (f.std_given && j < r.gnss.points.size()) {
+        const Eigen::Vector3d& reported = r.gnss.points[j].std_dev;
+        s.shared_h = beyond(reported.head<2>().norm() / std::sqrt(2.0), s.std_h);
+        s.shared_v = beyond(reported.z(), s.std_v);
+      }
+      out.push_back(s);
     }
     return out;
   }

@@ -58,16 +58,18 @@ Calibration calibration(const GeoreferenceResult& r, const Trajectory& truth) {
           std::sqrt(squares / static_cast<double>(errors.size()))};
 }
 
-// At least 85 % within the 95 % circle on every drive, and 80 % vertically but on
-// city_ins_10hz, whose GNSS errors are smooth (an INS's): the result follows them, and nothing
-// in the run shows their height error (35 %). The median sigma within twice the RMSE, but on
-// open_height_drift and open_varying_drift, where the clock's sigma (from its profiles) is
-// several times its true error and the speed times it makes up most of the sigma (2.8x, 2.5x),
-// and on urban_keyframes_1hz, whose keyframe graph jumps by decimetres: the walk's intensity
-// learned from its fixes (0.03 m^2 per m, one Gaussian for the jumps and the metres between
-// them) speaks for every metre, 3.1x a trajectory 0.39 m off the truth: within 3.5 times there.
-// Pooled (but city_ins_10hz), 93-98 % both ways: 96.6 / 95.6 % of about 2000 independent
-// samples, where calibrated sigmas show 94-96 %.
+// At least 85 % within the 95 % circle on every drive, and 80 % vertically. On city_ins_10hz
+// the GNSS/INS's error wanders smoothly (2 cm over 20 s) and the result follows it: the share of
+// its reported 4 cm vertical std-dev beyond its white noise is an error its fixes share, and
+// counts (97.9 %; read as white noise averaged over many fixes, 35 %). The median sigma within
+// twice the RMSE, but on open_height_drift and open_varying_drift, where the clock's sigma (from
+// its profiles) is several times its true error and the speed times it makes up most of the
+// sigma (2.8x, 2.5x), and on urban_keyframes_1hz, whose keyframe graph jumps by decimetres: the
+// walk's intensity learned from its fixes (0.03 m^2 per m, one Gaussian for the jumps and the
+// metres between them) speaks for every metre, 3.1x a trajectory 0.39 m off the truth: within
+// 3.5 times there.
+// Pooled, 93-98 % both ways: 96.8 / 95.7 % of about 2000 independent samples, where calibrated
+// sigmas show 94-96 %.
 TEST(SigmaCalibration, SimulatedDrivesAgainstTheirTruth) {
   sim::SigmaCoverage pooled;
   for (const char* name : kScenarios) {
@@ -82,10 +84,8 @@ TEST(SigmaCalibration, SimulatedDrivesAgainstTheirTruth) {
         r.sigma.median_h, c.rmse);
     const std::string n = name;
     EXPECT_GE(s.shareH(), 0.85) << n;
-    if (n != "city_ins_10hz") {
-      EXPECT_GE(s.shareV(), 0.80) << n;
-      pooled += s;
-    }
+    EXPECT_GE(s.shareV(), 0.80) << n;
+    pooled += s;
     const bool cautious = n == "loop_offset_lever" || n == "open_height_drift" ||
                           n == "open_varying_drift" || n == "urban_keyframes_1hz";
     EXPECT_LE(r.sigma.median_h, (cautious ? 3.5 : 2.0) * c.rmse) << n;

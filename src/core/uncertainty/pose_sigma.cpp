@@ -118,20 +118,23 @@ std::vector<double> atPoses(const AxisSeries& a, const walk::Intensity& q) {
 struct LocalResiduals {
   std::vector<double> mean_h2, scatter_v2, mean_v2;
   std::vector<double> std_h;  ///< the fixes' own horizontal 1-sigma, their weighted mean
+  /// The error the fixes share (SigmaFix::shared_*), the weighted mean of its squares.
+  std::vector<double> shared_h2, shared_v2;
 };
 
 LocalResiduals localResiduals(const std::vector<double>& pose_s, const std::vector<double>& fix_s,
                               const std::vector<Eigen::Vector3d>& residual,
-                              const std::vector<double>& var_h) {
-  LocalResiduals out{std::vector<double>(pose_s.size(), 0.0),
-                     std::vector<double>(pose_s.size(), 0.0),
-                     std::vector<double>(pose_s.size(), 0.0),
-                     std::vector<double>(pose_s.size(), std::numeric_limits<double>::infinity())};
+                              const std::vector<double>& var_h,
+                              const std::vector<Eigen::Vector2d>& shared2) {
+  const std::vector<double> zero(pose_s.size(), 0.0);
+  LocalResiduals out{
+      zero, zero, zero, std::vector<double>(pose_s.size(), std::numeric_limits<double>::infinity()),
+      zero, zero};
   std::size_t lo = 0;
   for (std::size_t i = 0; i < pose_s.size(); ++i) {
     while (lo < fix_s.size() && fix_s[lo] < pose_s[i] - 4.0 * kWindow) ++lo;
     double sw = 0.0, sw2 = 0.0, sv2 = 0.0, sz = 0.0, noise_h = 0.0, sd = 0.0;
-    Eigen::Vector2d sr = Eigen::Vector2d::Zero();
+    Eigen::Vector2d sr = Eigen::Vector2d::Zero(), shared = Eigen::Vector2d::Zero();
     for (std::size_t j = lo; j < fix_s.size() && fix_s[j] <= pose_s[i] + 4.0 * kWindow; ++j) {
       const double d = (fix_s[j] - pose_s[i]) / kWindow;
       const double w = std::exp(-0.5 * d * d);
@@ -141,12 +144,15 @@ LocalResiduals localResiduals(const std::vector<double>& pose_s, const std::vect
       sz += w * residual[j].z();
       noise_h += w * w * var_h[j];
       sd += w * std::sqrt(var_h[j]);
+      shared += w * shared2[j];
     }
     if (sw < 1e-9) continue;  // no fix near: the walk's growth speaks
     out.mean_h2[i] = std::max(0.0, (sr / sw).squaredNorm() - 2.0 * noise_h / (sw * sw)) / 2.0;
     out.scatter_v2[i] = sv2 / sw / (sw * sw / sw2);
     out.mean_v2[i] = (sz / sw) * (sz / sw);
     out.std_h[i] = sd / sw;
+    out.shared_h2[i] = shared.x() / sw;
+    out.shared_v2[i] = shared.y() / sw;
   }
   return out;
 }
@@ -198,6 +204,7 @@ void toBody(const Trajectory& result, const Eigen::Vector3d& lever, std::vector<
 struct FixTable {
   std::vector<double> along, result_s, x, y, z, var_h, var_v;
   std::vector<Eigen::Vector3d> residual;
+  std::vector<Eigen::Vector2d> shared2;  ///< squared shared error, horizontal and vertical
 };
 
 FixTable fixTable(const std::vector<SigmaFix>& fixes, const Trajectory& result,
@@ -216,6 +223,7 @@ FixTable fixTable(const std::vector<SigmaFix>& fixes, const Trajectory& result,
     t.var_v.push_back(std::pow(std::max(f.std_v, 1e-3), 2));
     t.result_s.push_back(at(result, result_s, f.t, k3));
     t.residual.push_back(f.position - at(followed, followed_p, f.t, k4));
+    t.shared2.emplace_back(f.shared_h * f.shared_h, f.shared_v * f.shared_v);
   }
   return t;
 }
@@ -247,13 +255,16 @@ void combine(const Trajectory& result, const Terms& terms, const SigmaContext& c
     const LocalResiduals& local = terms.local;
     const double wh = smoothed ? weightFor(local.std_h[i], kWalkPreciseH, kWalkH) : kWalkH;
     const double wv = smoothed ? weightFor(local.std_h[i], kWalkPreciseV, 1.0) : 1.0;
-    out.h.push_back(
-        std::sqrt(wh * wh * terms.walk_h[i] + kMeanResidualH * kMeanResidualH * local.mean_h2[i] +
-                  sheet.head<2>().squaredNorm() / 2.0 + clock * clock / 2.0 + jitter * jitter));
-    out.v.push_back(std::sqrt(
-        wv * wv *
-            (kWalkV * kWalkV * terms.walk_v[i] + kScatterV * kScatterV * local.scatter_v2[i]) +
-        kMeanResidualV * kMeanResidualV * local.mean_v2[i] + sheet.z() * sheet.z()));
+    // What the fixes know of the pose, at least the error they share.
+    const double known_h = std::max(wh * wh * terms.walk_h[i], local.shared_h2[i]);
+    const double known_v = std::max(
+        wv * wv * (kWalkV * kWalkV * terms.walk_v[i] + kScatterV * kScatterV * local.scatter_v2[i]),
+        local.shared_v2[i]);
+    out.h.push_back(std::sqrt(known_h + kMeanResidualH * kMeanResidualH * local.mean_h2[i] +
+                              sheet.head<2>().squaredNorm() / 2.0 + clock * clock / 2.0 +
+                              jitter * jitter));
+    out.v.push_back(std::sqrt(known_v + kMeanResidualV * kMeanResidualV * local.mean_v2[i] +
+                              sheet.z() * sheet.z()));
   }
 }
 
@@ -294,7 +305,7 @@ PoseSigmas poseSigmas(const Trajectory& result, const Trajectory& aligned,
   out.walk_h = qh.value, out.walk_rate_h = qh.rate;
   out.walk_v = qv.value, out.walk_rate_v = qv.rate;
   const Terms terms{atPoses(x, qh), atPoses(z, qv),
-                    localResiduals(pathLength(result), t.result_s, t.residual, t.var_h)};
+                    localResiduals(pathLength(result), t.result_s, t.residual, t.var_h, t.shared2)};
   combine(result, terms, context, out);
   summarise(result, out);
   return out;
