@@ -355,13 +355,24 @@ std::vector<RejectedStretch> rejectedStretches(const FusionResult& f, bool given
   return out;
 }
 
-/// The three longest rejected stretches of a kind, one warning each; `what` follows the
-/// stretch's span and fix count.
+/// Whether the fixes of a stretch that claimed RTK precision agree with each other (fewer than
+/// half of them rougher than they claim): its rejection is disputed between GNSS and SLAM.
+bool disputed(const RejectedStretch& run) { return 2 * run.rough < run.fixes; }
+
+/// The stretches of fixes that claimed RTK precision, agree with each other and were rejected.
+std::vector<RejectedStretch> disputedStretches(const FusionResult& f) {
+  std::vector<RejectedStretch> out = rejectedStretches(f, true);
+  out.erase(std::remove_if(out.begin(), out.end(),
+                           [](const RejectedStretch& run) { return !disputed(run); }),
+            out.end());
+  return out;
+}
+
 /// What a stretch of fixes that claimed RTK precision was: the GNSS's fault where its fixes
 /// scatter more than they claim (they agree neither with each other nor with the SLAM's
 /// short-term motion), else disputed between the two, and which side was followed and why.
 std::string claimedVerdict(const RejectedStretch& run, const FusionResult& f) {
-  if (2 * run.rough >= run.fixes) {
+  if (!disputed(run)) {
     return " though their std-dev claimed RTK precision (under 5 cm): they scatter more than "
            "they claim and part from the SLAM's short-term motion, multipath or a false RTK "
            "fix, not a SLAM error; those fixes were left out";
@@ -379,6 +390,8 @@ std::string claimedVerdict(const RejectedStretch& run, const FusionResult& f) {
   return s.str();
 }
 
+/// The three longest rejected stretches of a kind, one warning each; `what` follows the
+/// stretch's span and fix count.
 void warnRejectedStretches(const FusionResult& f, bool given, const std::string& what,
                            std::vector<std::string>& out) {
   const std::vector<RejectedStretch> runs = rejectedStretches(f, given);
@@ -722,10 +735,17 @@ std::vector<SigmaFix> sigmaFixes(const GeoreferenceResult& r, const Params& para
   std::vector<SigmaFix> out;
   if (r.fusion && r.method == Method::kFusion) {
     const std::vector<FixOutcome>& fixes = r.fusion->fixes;
+    const std::vector<RejectedStretch> disputes = disputedStretches(*r.fusion);
     for (std::size_t j = 0; j < fixes.size(); ++j) {
       const FixOutcome& f = fixes[j];
-      if (f.verdict != FixVerdict::kUsed) continue;
+      const bool disputed =
+          f.verdict == FixVerdict::kOutlier &&
+          std::any_of(disputes.begin(), disputes.end(), [&](const RejectedStretch& d) {
+            return f.stamp >= d.begin && f.stamp <= d.end;
+          });
+      if (f.verdict != FixVerdict::kUsed && !disputed) continue;
       SigmaFix s{f.stamp + r.fusion->time_offset, f.position, f.std_dev.x(), f.std_dev.z()};
+      s.disputed = disputed;
       if (f.std_given && j < r.gnss.points.size()) {
         const Eigen::Vector3d& reported = r.gnss.points[j].std_dev;
         s.shared_h = beyond(reported.head<2>().norm() / std::sqrt(2.0), s.std_h);

@@ -176,6 +176,34 @@ TEST(PoseSigmas, TheErrorTheFixesShareIsNotAveragedOut) {
   EXPECT_LE(s.median_h, 2.0 * rms);
 }
 
+// Fixes that claimed RTK precision and agree with each other, 1.5 m off the result from 400 to
+// 500 m and rejected: the GNSS's word against the SLAM's. The result does not rest on them, but
+// how far it lies from them counts there: its sigma covers the 1.5 m (at least 0.6 m), and away
+// from them, where the result rests on good fixes, the sigmas are those without the dispute.
+TEST(PoseSigmas, ADisputedStretchCountsWhereItLies) {
+  const Trajectory t = straight(1001, 1.0);
+  std::mt19937 rng(9);
+  std::normal_distribution<double> n(0.0, 0.02);
+  std::vector<SigmaFix> fixes, agreed;
+  for (int i = 0; i <= 1000; ++i) {
+    SigmaFix f{t[i].stamp, t[i].position + Eigen::Vector3d(n(rng), n(rng), n(rng)), 0.02, 0.02};
+    if (i > 400 && i < 500) {
+      f.position.y() += 1.5;
+      f.disputed = true;
+    } else {
+      agreed.push_back(f);
+    }
+    fixes.push_back(f);
+  }
+  const PoseSigmas with = poseSigmas(t, t, fixes), without = poseSigmas(t, t, agreed);
+  EXPECT_EQ(with.fixes, agreed.size());
+  EXPECT_GT(with.h[450], 0.6);
+  EXPECT_GT(2.45 * with.h[450], 1.5);
+  EXPECT_LT(without.h[450], 0.1);
+  EXPECT_NEAR(with.h[200], without.h[200], 1e-9);
+  EXPECT_NEAR(with.h[800], without.h[800], 1e-9);
+}
+
 // No fix the result rests on: nothing is known, and that is what is said.
 TEST(PoseSigmas, WithoutFixesEverySigmaIsInfinite) {
   const Trajectory t = straight(10, 1.0);

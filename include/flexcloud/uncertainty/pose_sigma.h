@@ -7,12 +7,13 @@
 // variance says how well the fixes pin the correction down at each pose: least where they are
 // dense, more between sparse ones, growing beyond the last. Added to it: the local mean of the
 // fixes' residuals from the result (what the fixes agree on but the truth may not, as a multipath
-// episode the result followed; horizontally less what their own noise puts into it), what the
-// sheet left of the fused trajectory, and the speed times an estimated clock offset's sigma. What
-// the fixes pin down is never taken below the error they share: the part of a receiver's
-// reported std-dev beyond the white noise the drive shows of it (a GNSS/INS's wander, which the
-// result follows and no number of fixes averages out). The weights are calibrated against the
-// truth of real and simulated drives (doc/ACCURACY.md).
+// episode the result followed; horizontally less what their own noise puts into it; a disputed
+// stretch of rejected fixes counts there too), what the sheet left of the fused trajectory, and
+// the speed times an estimated clock offset's sigma. What the fixes pin down is never taken
+// below the error they share: the part of a receiver's reported std-dev beyond the white noise
+// the drive shows of it (a GNSS/INS's wander, which the result follows and no number of fixes
+// averages out). The weights are calibrated against the truth of real and simulated drives
+// (doc/ACCURACY.md).
 
 #include <cstddef>
 #include <vector>
@@ -24,7 +25,10 @@ namespace flexcloud {
 /// A fix the result rests on: its instant on the SLAM clock, ENU position, own 1-sigma
 /// (horizontal per axis, vertical), m, and the part of the std-dev its receiver reported that
 /// its white noise leaves (0 where none was reported, or no more than the white noise): an
-/// error that the neighbouring fixes share, which no number of them averages out.
+/// error that the neighbouring fixes share, which no number of them averages out. A `disputed`
+/// fix was rejected, though it claimed RTK precision and agrees with its neighbours (the
+/// GNSS's word against the SLAM's): the result does not rest on it, but how far the result lies
+/// from it counts among the local residuals.
 struct SigmaFix {
   double t = 0.0;
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
@@ -32,6 +36,7 @@ struct SigmaFix {
   double std_v = 0.0;
   double shared_h = 0.0;
   double shared_v = 0.0;
+  bool disputed = false;
 };
 
 /// The longest run of poses around the least certain one whose horizontal sigma is at least

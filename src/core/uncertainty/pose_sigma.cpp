@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <limits>
 
 #include "flexcloud/input/trajectory.h"
@@ -228,6 +229,14 @@ FixTable fixTable(const std::vector<SigmaFix>& fixes, const Trajectory& result,
   return t;
 }
 
+/// The fixes the result rests on: all but the disputed.
+std::vector<SigmaFix> restingOn(const std::vector<SigmaFix>& fixes) {
+  std::vector<SigmaFix> out;
+  std::copy_if(fixes.begin(), fixes.end(), std::back_inserter(out),
+               [](const SigmaFix& f) { return !f.disputed; });
+  return out;
+}
+
 /// What the sigmas of the poses are made of (poseSigmas).
 struct Terms {
   std::vector<double> walk_h, walk_v;
@@ -280,8 +289,9 @@ PoseSigmas poseSigmas(const Trajectory& result, const Trajectory& aligned,
               fixes.end());
   std::sort(fixes.begin(), fixes.end(),
             [](const SigmaFix& a, const SigmaFix& b) { return a.t < b.t; });
-  out.fixes = fixes.size();
-  if (fixes.empty()) {
+  const std::vector<SigmaFix> rest = restingOn(fixes);
+  out.fixes = rest.size();
+  if (rest.empty()) {
     out.h.assign(result.size(), std::numeric_limits<double>::infinity());
     out.v = out.h;
     summarise(result, out);
@@ -294,8 +304,10 @@ PoseSigmas poseSigmas(const Trajectory& result, const Trajectory& aligned,
   }
   toBody(result, context.lever_arm, fixes);
   const bool fused = context.fused != nullptr && context.fused->size() == result.size();
-  const FixTable t = fixTable(fixes, result, fused ? *context.fused : result, aligned, pose_along,
-                              context.slam_white);
+  const Trajectory& followed = fused ? *context.fused : result;
+  const FixTable t =
+      fixTable(restingOn(fixes), result, followed, aligned, pose_along, context.slam_white);
+  const FixTable all = fixTable(fixes, result, followed, aligned, pose_along, context.slam_white);
   const AxisSeries x = axisSeries(t.along, t.x, t.var_h, pose_along);
   const AxisSeries z = axisSeries(t.along, t.z, t.var_v, pose_along);
   // Learned from the fixes alone: the poses' places add nothing to the likelihood.
@@ -304,8 +316,9 @@ PoseSigmas poseSigmas(const Trajectory& result, const Trajectory& aligned,
   const walk::Intensity qv = walk::learnIntensity({fixSeries(t.along, t.z, t.var_v)});
   out.walk_h = qh.value, out.walk_rate_h = qh.rate;
   out.walk_v = qv.value, out.walk_rate_v = qv.rate;
-  const Terms terms{atPoses(x, qh), atPoses(z, qv),
-                    localResiduals(pathLength(result), t.result_s, t.residual, t.var_h, t.shared2)};
+  const Terms terms{
+      atPoses(x, qh), atPoses(z, qv),
+      localResiduals(pathLength(result), all.result_s, all.residual, all.var_h, all.shared2)};
   combine(result, terms, context, out);
   summarise(result, out);
   return out;
