@@ -131,30 +131,21 @@ double ownJitterShare(const Trajectory& aligned, const std::vector<GnssPoint>& f
                                      [](const Pose& p, double t) { return p.stamp < t; });
     if (it != aligned.end() && it->stamp <= f.stamp + kSameInstant) at[it - aligned.begin()] = &f;
   }
-  // Third differences over four consecutive poses with one (the motion, in both, cancels in
-  // the share): of the poses, the fixes and the residuals, horizontal.
-  std::vector<std::size_t> with;
+  // Roughness over the poses with one (the motion, in both, cancels in the share): of the
+  // poses, the fixes and the residuals, horizontal.
+  std::vector<Eigen::Vector3d> poses, gnss, residual;
+  std::vector<double> stamps;
   for (std::size_t i = 0; i < at.size(); ++i) {
-    if (at[i] != nullptr) with.push_back(i);
+    if (at[i] == nullptr) continue;
+    poses.push_back(aligned[i].position);
+    gnss.push_back(at[i]->position);
+    residual.push_back(gnss.back() - poses.back());
+    stamps.push_back(aligned[i].stamp);
   }
-  std::vector<double> dp, dg, dr;
-  for (std::size_t j = 0; j + 3 < with.size(); ++j) {
-    Eigen::Vector3d p[4], g[4], r[4];
-    double t[4];
-    for (std::size_t k = 0; k < 4; ++k) {
-      const std::size_t i = with[j + k];
-      p[k] = aligned[i].position, g[k] = at[i]->position, r[k] = g[k] - p[k];
-      t[k] = aligned[i].stamp;
-    }
-    const auto a = thirdDividedDifference(p, t), b = thirdDividedDifference(g, t),
-               c = thirdDividedDifference(r, t);
-    if (!a || !b || !c) continue;
-    dp.insert(dp.end(), {a->x(), a->y()});
-    dg.insert(dg.end(), {b->x(), b->y()});
-    dr.insert(dr.end(), {c->x(), c->y()});
-  }
-  if (dp.size() < 2 * kLeastWindows || !(white > 0.0)) return 1.0;
-  const double p = median(dp) / 0.6745, g = median(dg) / 0.6745, r = median(dr) / 0.6745;
+  if (poses.size() < kLeastWindows + 3 || !(white > 0.0)) return 1.0;
+  const double p = roughness(poses, stamps).x(), g = roughness(gnss, stamps).x(),
+               r = roughness(residual, stamps).x();
+  if (!std::isfinite(p) || !std::isfinite(g) || !std::isfinite(r)) return 1.0;
   if (g > kRoughestFixes * white) return 1.0;
   return std::clamp((r * r + p * p - g * g) / (2.0 * white * white), 0.0, 1.0);
 }

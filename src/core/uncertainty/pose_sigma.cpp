@@ -289,6 +289,7 @@ PoseSigmas poseSigmas(const Trajectory& result, const Trajectory& aligned,
               fixes.end());
   std::sort(fixes.begin(), fixes.end(),
             [](const SigmaFix& a, const SigmaFix& b) { return a.t < b.t; });
+  toBody(result, context.lever_arm, fixes);
   const std::vector<SigmaFix> rest = restingOn(fixes);
   out.fixes = rest.size();
   if (rest.empty()) {
@@ -302,12 +303,15 @@ PoseSigmas poseSigmas(const Trajectory& result, const Trajectory& aligned,
   for (std::size_t i = 0; i < aligned.size(); ++i) {
     pose_along[i] += kTimeMetres * (aligned[i].stamp - first);
   }
-  toBody(result, context.lever_arm, fixes);
   const bool fused = context.fused != nullptr && context.fused->size() == result.size();
   const Trajectory& followed = fused ? *context.fused : result;
-  const FixTable t =
-      fixTable(restingOn(fixes), result, followed, aligned, pose_along, context.slam_white);
-  const FixTable all = fixTable(fixes, result, followed, aligned, pose_along, context.slam_white);
+  const FixTable t = fixTable(rest, result, followed, aligned, pose_along, context.slam_white);
+  // The local residuals count the disputed fixes too: a table of their own only where any are.
+  const bool any_disputed = rest.size() < fixes.size();
+  const FixTable disputed_too =
+      any_disputed ? fixTable(fixes, result, followed, aligned, pose_along, context.slam_white)
+                   : FixTable{};
+  const FixTable& all = any_disputed ? disputed_too : t;
   const AxisSeries x = axisSeries(t.along, t.x, t.var_h, pose_along);
   const AxisSeries z = axisSeries(t.along, t.z, t.var_v, pose_along);
   // Learned from the fixes alone: the poses' places add nothing to the likelihood.
