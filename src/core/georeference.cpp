@@ -412,6 +412,26 @@ void warnRejectedStretches(const FusionResult& f, bool given, const std::string&
   }
 }
 
+/// The stretches where precise fixes that agree with each other were followed however far the
+/// SLAM's shape lay from them: the SLAM failed there. The three longest, one warning each.
+void warnSlamFailures(const FusionResult& f, std::vector<std::string>& out) {
+  std::vector<FusionResult::SlamFailure> runs = f.follow.slam_failures;
+  std::sort(runs.begin(), runs.end(),
+            [](const auto& a, const auto& b) { return a.end - a.begin > b.end - b.begin; });
+  for (std::size_t k = 0; k < runs.size() && k < 3; ++k) {
+    std::ostringstream s;
+    s.setf(std::ios::fixed);
+    s.precision(1);
+    s << "SLAM failure: from " << runs[k].begin << " to " << runs[k].end
+      << " s (SLAM clock) its shape lies up to " << runs[k].worst << " m from " << runs[k].fixes
+      << " fixes that claim RTK precision and agree with each other, with no step, gap or "
+         "change of claim at either end: the GNSS was followed there. Check the SLAM there "
+         "(its map may be distorted)";
+    if (k == 2 && runs.size() > 3) s << " (and " << runs.size() - 3 << " more such stretches)";
+    out.push_back(s.str());
+  }
+}
+
 /// The fixes that took part with their horizontal part alone, where at least kHeightFixes did:
 /// how many, the longest run of them among the fixes that took part, and how far their heights
 /// lie from the fused trajectory.
@@ -660,6 +680,7 @@ std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Param
     out.push_back(s.str());
   }
   if (r.fusion) {
+    warnSlamFailures(*r.fusion, out);
     warnHeightsLeftOut(*r.fusion, out);
     warnRejectedStretches(*r.fusion, true, "", out);
     warnRejectedStretches(

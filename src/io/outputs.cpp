@@ -56,6 +56,18 @@ json paramsJson(const Params& params) {
 
 json finiteOrNull(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
+/// The stretches where precise fixes were followed against the SLAM's shape.
+json slamFailuresJson(const std::vector<FusionResult::SlamFailure>& runs) {
+  json out = json::array();
+  for (const auto& run : runs) {
+    out.push_back({{"from_s", run.begin},
+                   {"to_s", run.end},
+                   {"fixes", run.fixes},
+                   {"slam_off_by_m", run.worst}});
+  }
+  return out;
+}
+
 json fusionJson(const FusionResult& f) {
   return {{"keyframes", f.keyframes},
           {"fixes_used", f.used},
@@ -86,7 +98,8 @@ json fusionJson(const FusionResult& f) {
             {"slam_jumps", f.follow.jumps},
             {"taken_back", f.follow.taken_back},
             {"kept_out_too_far", f.follow.locked},
-            {"rejected", f.follow.rejected}}},
+            {"rejected", f.follow.rejected},
+            {"slam_failures_followed", slamFailuresJson(f.follow.slam_failures)}}},
           {"stages", f.stages},
           {"solves", f.solves},
           {"seconds", f.seconds}};

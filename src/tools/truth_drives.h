@@ -2,9 +2,11 @@
 // Real drives with a ground truth (doc/ACCURACY.md): a folder with poses_tum.txt (the SLAM),
 // gt_tum.txt (the truth at the same stamps, in the frame of the GNSS) and gnss_rtk.txt /
 // gnss_urban.txt (`stamp x y z sx sy sz`, std-devs 0 where not given), as
-// ../shared/data/kitti_lo/NN holds them. A result is judged against the truth at the poses'
-// true instants: row i of the trajectory against row i of the truth, whatever clock a method
-// chose or the stamps were shifted by.
+// ../shared/data/kitti_lo/NN and ../shared/data/mulran_lo/NAME hold them. A result is judged
+// against the truth at the poses' true instants: row i of the trajectory against the truth at
+// the stamp of pose i plus the drive's lag (0 for KITTI; MulRan's odometry leads or lags its
+// truth rows by 38-58 ms, as its README gives), whatever clock a method chose or the stamps
+// were shifted by.
 
 #include <string>
 #include <utility>
@@ -16,11 +18,19 @@
 namespace flexcloud::study {
 
 struct TruthDrive {
-  std::string name;    ///< e.g. "07 rtk"
-  DriveInput input;    ///< poses and local GNSS
-  Trajectory truth;    ///< one per pose, in the GNSS's frame, on the poses' clock
+  std::string name;  ///< e.g. "07 rtk"
+  DriveInput input;  ///< poses and local GNSS
+  Trajectory truth;  ///< the truth rows, in the GNSS's frame, on the GNSS's clock
+  /// The truth at every pose's true instant (its stamp plus `lag`), in the poses' order; NaN
+  /// positions where that instant lies outside the truth rows.
+  Trajectory truth_at_pose;
+  double lag = 0.0;    ///< s: pose stamp s shows where the vehicle was at truth time s + lag
   double shift = 0.0;  ///< s the poses' (and the truth's) stamps were moved by
 };
+
+/// The lag of a drive's poses behind its truth rows (s, truth time - pose stamp), as the
+/// dataset's README gives it: MulRan's six drives; 0 for any other folder (KITTI's).
+double knownLag(const std::string& dir);
 
 /// The drive in `dir` with the GNSS of `kind` (rtk or urban), the poses' stamps moved by
 /// `shift` seconds (a known clock offset: SLAM clock minus GNSS clock). Throws Error naming a

@@ -12,7 +12,11 @@ namespace flexcloud {
 namespace {
 
 /// The figures recorded on a fresh clone (200 control points, the largest of seeds 1-3, m); the
-/// tests allow half as much again, so a regression of 1.5x fails.
+/// tests allow half as much again, so a regression of 1.5x fails. open_urban_end's multipath
+/// episodes claim RTK precision without scatter, and its last 35 s of false RTK fixes ramp in
+/// over 2 s with no fix of another claim around them: nothing in the GNSS shows their fault,
+/// and fixes that claim precision and agree with each other are followed (on every real drive
+/// seen, such a stretch was the SLAM failing): 0.812 / 0.778 / 0.797 m before.
 struct Target {
   const char* scenario;
   double map_rmse;         ///< all points
@@ -25,7 +29,7 @@ constexpr Target kTargets[] = {{"loop_rtk", 0.034, 0.041, 0.009},
                                {"open_rtk", 0.035, 0.046, 0.009},
                                {"loop_urban", 0.066, 0.071, 0.060},
                                {"open_urban", 0.077, 0.082, 0.071},
-                               {"open_urban_end", 0.812, 0.778, 0.797}};
+                               {"open_urban_end", 1.768, 1.576, 2.250}};
 
 struct Outcome {
   sim::MapTruthErrors map;

@@ -98,14 +98,38 @@ TEST(ClockCombined, AgreeingProfilesAreWeighedBySigma) {
   EXPECT_TRUE(c.observable);
 }
 
-// KITTI 10's LiDAR odometry: its speed lags by 12 ms, its heading leads by 8: they part by
-// more than their noise, and the sigma grows to half of that.
-TEST(ClockCombined, DisagreeingProfilesWidenTheSigma) {
+// KITTI 10's LiDAR odometry: its speed lags by 12 ms, its heading leads by 8. They part by 20
+// ms, within what a SLAM's own lag moves either by: the heading refines the speed's offset.
+TEST(ClockCombined, AHeadingWithinTheSpeedsBoundRefinesIt) {
   const ClockEstimate c = combineClock(profile(0.012, 0.0068), profile(-0.0083, 0.0048));
-  EXPECT_TRUE(c.disagree);
-  EXPECT_NEAR(c.sigma, std::hypot(0.5 * 0.0203, kClockSystematic), 1e-9);
+  EXPECT_FALSE(c.disagree);
+  const double ws = 1.0 / (0.0068 * 0.0068), wh = 1.0 / (0.0048 * 0.0048);
+  EXPECT_NEAR(c.offset, (ws * 0.012 - wh * 0.0083) / (ws + wh), 1e-12);
+  EXPECT_NEAR(c.sigma, std::hypot(1.0 / std::sqrt(ws + wh), kClockSystematic), 1e-12);
   EXPECT_FALSE(c.observable);  // told from 0 by neither: the stamps as given stand
   EXPECT_EQ(c.reason, "within its noise of 0");
+}
+
+// MulRan DCC_03: the speed profile 43.1 +- 4.6 ms (the truth 54 ms), the heading -214 +- 15 ms
+// (its LiDAR's heading lags its path in turns). The heading lies far beyond the speed's bound
+// and takes no part: the speed's offset stands with its own sigma.
+TEST(ClockCombined, AHeadingBeyondTheSpeedsBoundTakesNoPart) {
+  const ClockEstimate c = combineClock(profile(0.0431, 0.0046), profile(-0.2143, 0.0153));
+  EXPECT_TRUE(c.disagree);
+  EXPECT_DOUBLE_EQ(c.offset, 0.0431);
+  EXPECT_NEAR(c.sigma, std::hypot(0.0046, kClockSystematic), 1e-12);
+  EXPECT_TRUE(c.observable);
+}
+
+// A speed profile that knows the offset loosely (5 +- 29 ms, the truth 0) is not sharpened by a
+// heading within its bound (-46 +- 4 ms): a heading that lags in turns would take the clock
+// there.
+TEST(ClockCombined, ALooseSpeedProfileIsNotRefinedByTheHeading) {
+  const ClockEstimate c = combineClock(profile(0.005, 0.029), profile(-0.046, 0.004));
+  EXPECT_FALSE(c.disagree);
+  EXPECT_DOUBLE_EQ(c.offset, 0.005);
+  EXPECT_NEAR(c.sigma, std::hypot(0.029, kClockSystematic), 1e-12);
+  EXPECT_FALSE(c.observable);
 }
 
 TEST(ClockCombined, TheSpeedAloneIsEnoughTheHeadingAloneIsNot) {

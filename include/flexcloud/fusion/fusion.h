@@ -134,7 +134,15 @@ struct FusionResult {
   /// What that refinement learned: the fixes that took part, the SLAM's short-term error
   /// (random walk intensity, m^2 per m of path, horizontal and vertical), its excess over the
   /// fixes' noise (m), the steps taken for jumps, the fixes the graph had rejected that it
-  /// took back, those it kept out as too far for an error of the SLAM, and those it rejected.
+  /// took back, those it kept out as too far for an error of the SLAM (the GNSS showing a
+  /// fault at their edge), and those it rejected; and the stretches where it followed fixes
+  /// that claim precision and agree with each other however far the SLAM's shape lay from them
+  /// (the SLAM failing there): their first and last fix's instant (SLAM clock, s), how many
+  /// fixes, and how far at most the keyframe graph's trajectory lay from them (m).
+  struct SlamFailure {
+    double begin = 0.0, end = 0.0, worst = 0.0;
+    std::size_t fixes = 0;
+  };
   struct Follow {
     std::size_t fixes = 0;
     double q_h = 0.0;
@@ -144,6 +152,7 @@ struct FusionResult {
     std::size_t taken_back = 0;
     std::size_t locked = 0;
     std::size_t rejected = 0;
+    std::vector<SlamFailure> slam_failures;
   } follow;
   std::size_t keyframes = 0;
   std::size_t used = 0;

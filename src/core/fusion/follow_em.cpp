@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "flexcloud/metrics.h"
 
@@ -14,6 +15,22 @@ constexpr double kLogQLow = -9.0, kLogQHigh = 0.0;  // log10 of q's range, m^2 p
 constexpr int kGoldenSteps = 20;
 constexpr double kMinWeight = 1e-6;
 constexpr double kFarSigmas = 6.0;
+// A fault of the GNSS at the edge of a rejected run: within this many seconds of it, a step
+// of the residual beyond kStepSigmas of the two fixes' joint sigma, or a gap this long after
+// which the residual moved further than that and kDriftRate (m/s: faster than the SLAM failures
+// seen, which moved the residual by at most 0.7 m in a second and far less over longer spans);
+// or the claimed std-dev changing by more than kClaimChange.
+constexpr double kEdgeSeconds = 1.0;
+constexpr double kStepSigmas = 10.0;
+// Of the path between two fixes, the share a SLAM's own error may move the residual by: a race
+// car's SLAM (a2rl, 70 m/s, fixes 0.6 s apart) stepped back by 0.9 m over 42 m where it
+// recovered from a failure the GNSS showed.
+constexpr double kStepPath = 0.02;
+constexpr double kDriftRate = 0.5;
+constexpr double kClaimChange = 1.5;
+constexpr double kClaimSeconds = 5.0;
+constexpr std::size_t kLeastRun = 10;   // fixes of a run followed without a fault at its edges
+constexpr double kPreciseClaim = 0.05;  // m: a fix claiming this or better claims precision
 
 }  // namespace
 
@@ -52,7 +69,7 @@ Refinement::Refinement(const Series& s, const FollowOptions& o)
 void Refinement::run(const std::vector<double>& jumps, const std::vector<double>& start) {
   jump_ = candidates_ = jumps;
   excess_ = slamExcess();
-  locked_ = lockFarRuns(start);
+  holdFarRuns(start);
   for (std::size_t j = 0; j < w_.size(); ++j) w_[j] = locked_[j] ? 0.0 : 1.0;
   q_[0] = q_[1] = o_.start_q;
   for (int round = 0; round < o_.rounds; ++round) {
@@ -124,12 +141,66 @@ double Refinement::slamExcess() const {
   return std::sqrt(std::max(0.0, spread * spread - median(std::move(own))));
 }
 
-std::vector<bool> Refinement::lockFarRuns(const std::vector<double>& start) const {
+bool Refinement::stepNear(double centre) const {
+  // A step of the residual (fix less the graph's trajectory) between consecutive fixes within a
+  // second of the edge that neither fix's claim nor the SLAM's short-term motion can make. A
+  // SLAM that fails bends away gradually: on the MulRan drives, the runs it made the graph
+  // reject step by at most 0.20 m from fix to fix near their edges (against 10 of these 2 cm
+  // fixes' joint sigmas, 0.28 m).
+  for (std::size_t j = 1; j < s_.size(); ++j) {
+    if (std::abs(s_.t[j] - centre) > kEdgeSeconds || s_.t[j] - s_.t[j - 1] > kEdgeSeconds) {
+      continue;
+    }
+    const double sigma =
+        std::sqrt(s_.var[j].x() + s_.var[j - 1].x()) + 2.0 * excess_ + kStepPath * s_.step(j);
+    if ((s_.r[j] - s_.r[j - 1]).head<2>().norm() > kStepSigmas * sigma) return true;
+  }
+  return false;
+}
+
+bool Refinement::returnAfterGap(std::size_t lo, std::size_t hi) const {
+  // Further off after a gap than the SLAM's drift can carry the residual over it.
+  const double gap = s_.t[hi] - s_.t[lo];
+  if (!(gap > kEdgeSeconds)) return false;
+  const double sigma = std::sqrt(s_.var[hi].x() + s_.var[lo].x()) + 2.0 * excess_;
+  return (s_.r[hi] - s_.r[lo]).head<2>().norm() > kStepSigmas * sigma + kDriftRate * gap;
+}
+
+bool Refinement::claimChangesNear(double centre) const {
+  // The receiver's claim changes within kClaimSeconds of the edge (its status: fixed against
+  // float): a departure that grows smoothly is rejected only once it passes the fixes' noise, a
+  // second or so after it set in. A fix of worse claim between two of the series is such a
+  // change too. (One rougher than it claims is not: on MulRan, where every fix is honest, the
+  // SLAM's failure makes the residuals rough at some edges.)
+  double lo = std::numeric_limits<double>::infinity(), hi = 0.0;
+  for (std::size_t j = 0; j < s_.size(); ++j) {
+    if (std::abs(s_.t[j] - centre) > kClaimSeconds) continue;
+    if (s_.doubt[j]) return true;
+    if (!std::isfinite(s_.claim[j])) continue;
+    lo = std::min(lo, s_.claim[j]);
+    hi = std::max(hi, s_.claim[j]);
+  }
+  return hi > kClaimChange * lo;
+}
+
+bool Refinement::faultAtEdge(std::size_t inside, std::size_t outside) const {
+  const double centre = s_.t[std::max(inside, outside)];
+  return stepNear(centre) || returnAfterGap(std::min(inside, outside), std::max(inside, outside)) ||
+         claimChangesNear(centre);
+}
+
+void Refinement::holdFarRuns(const std::vector<double>& start) {
   // A run of fixes the graph rejected whose median horizontal distance from its trajectory
   // lies beyond run_excess times the SLAM's excess (and kFarSigmas of the fixes' own
   // std-devs: the graph rejects from 4.4 of them on, the tail of their noise) is further off
-  // than any error of the SLAM's: no round takes it back.
-  std::vector<bool> locked(start.size(), false);
+  // than a SLAM's short-term error; it stays out only where the GNSS itself shows a fault at
+  // either edge (faultAtEdge): fixes that claim precision, agree with each other and run on
+  // without a step are followed however far the SLAM lies from them. On every real drive seen,
+  // such a stretch was the SLAM failing (MulRan Riverside_02: 70 s, 8.7 m); the outlier
+  // component takes no part there, since the correction must bend faster than the SLAM's
+  // usual error for them (a2rl: 17 m over 28 s, the fixes held out of it within 0.8 m).
+  locked_.assign(start.size(), false);
+  followed_.assign(start.size(), false);
   for (std::size_t a = 0; a < start.size();) {
     if (start[a] >= 0.5) {
       ++a;
@@ -142,13 +213,22 @@ std::vector<bool> Refinement::lockFarRuns(const std::vector<double>& start) cons
       d.push_back(s_.r[k].head<2>().norm());
       own.push_back(std::sqrt(s_.var[k].x()));
     }
-    if (median(d) > o_.run_excess * excess_ + kFarSigmas * median(own)) {
-      std::fill(locked.begin() + static_cast<std::ptrdiff_t>(a),
-                locked.begin() + static_cast<std::ptrdiff_t>(b) + 1, true);
+    const bool far = median(d) > o_.run_excess * excess_ + kFarSigmas * median(own);
+    // A few fixes are no run: outliers, or the ends of an episode whose middle scattered. Fixes
+    // that came without a std-dev claim nothing: their run stays out as before (a2rl, whose
+    // 17 m stretch is smoother than its measured fixes, as a curve drawn through an outage).
+    const bool claimed = std::all_of(s_.claim.begin() + static_cast<std::ptrdiff_t>(a),
+                                     s_.claim.begin() + static_cast<std::ptrdiff_t>(b) + 1,
+                                     [](double c) { return c <= kPreciseClaim; });
+    const bool run = claimed && b - a + 1 >= kLeastRun && s_.t[b] - s_.t[a] >= kEdgeSeconds;
+    const bool fault =
+        !run || (a > 0 && faultAtEdge(a, a - 1)) || (b + 1 < start.size() && faultAtEdge(b, b + 1));
+    if (far) {
+      std::fill((fault ? locked_ : followed_).begin() + static_cast<std::ptrdiff_t>(a),
+                (fault ? locked_ : followed_).begin() + static_cast<std::ptrdiff_t>(b) + 1, true);
     }
     a = b + 1;
   }
-  return locked;
 }
 
 void Refinement::updateWeights() {
@@ -164,6 +244,7 @@ void Refinement::updateWeights() {
       det *= kTwoPi * v;
     }
     const double inlier = (1.0 - o_.outlier_prior) * std::exp(-0.5 * e2) / std::sqrt(det);
+    if (followed_[j]) continue;
     w_[j] = locked_[j] || !(inlier + outlier > 0.0) ? 0.0 : inlier / (inlier + outlier);
   }
 }

@@ -30,15 +30,18 @@ class Refinement {
   Refinement(const Series& s, const FollowOptions& o);
 
   /// `start` is the keyframe graph's weight of each fix, `jumps` the steps the residuals alone
-  /// show a jump at (detectJumps). Runs of fixes the graph rejected that lie too far for an
-  /// error of the SLAM (lockFarRuns) stay out; every other fix starts with full say, whatever
-  /// the graph called it. Round 0 smooths at q = start_q; every later round learns q by maximum
-  /// likelihood with the fixes weighted as the round before judged them.
+  /// show a jump at (detectJumps). Runs of fixes the graph rejected that lie too far for a
+  /// short-term error of the SLAM (holdFarRuns) stay out where the GNSS shows a fault at their
+  /// edge, and are followed (kept at full say) where it does not; every other fix starts with
+  /// full say, whatever the graph called it. Round 0 smooths at q = start_q; every later round
+  /// learns q by maximum likelihood with the fixes weighted as the round before judged them.
   void run(const std::vector<double>& jumps, const std::vector<double>& start);
 
   const std::vector<double>& weights() const { return w_; }
   const std::vector<double>& jumps() const { return jump_; }
   const std::vector<bool>& locked() const { return locked_; }
+  /// Per fix: whether it lies in a run followed though far from the SLAM's shape.
+  const std::vector<bool>& followed() const { return followed_; }
   double q(int group) const { return q_[group]; }
   double excess() const { return excess_; }
   Vec3 correction(std::size_t j) const { return Vec3(sm_[0].m[j], sm_[1].m[j], sm_[2].m[j]); }
@@ -50,14 +53,22 @@ class Refinement {
   double learnQ(std::initializer_list<int> axes) const;
   void smoothAll();
   double slamExcess() const;
-  std::vector<bool> lockFarRuns(const std::vector<double>& start) const;
+  /// Sets locked_ and followed_ (see run()).
+  void holdFarRuns(const std::vector<double>& start);
+  /// Whether the GNSS shows a fault at the edge between fix `inside` (of a rejected run) and
+  /// its neighbour `outside`: a step near it, a return after a gap across it, a change of claim
+  /// near it.
+  bool faultAtEdge(std::size_t inside, std::size_t outside) const;
+  bool stepNear(double centre) const;
+  bool returnAfterGap(std::size_t lo, std::size_t hi) const;
+  bool claimChangesNear(double centre) const;
   void updateWeights();
   void updateSteps();
 
   const Series& s_;
   const FollowOptions& o_;
   std::vector<double> w_, jump_, bend_, candidates_;
-  std::vector<bool> locked_;
+  std::vector<bool> locked_, followed_;
   double q_[2] = {1e-9, 1e-9};
   double excess_ = 0.0;
   std::array<Smoothed, 3> sm_;

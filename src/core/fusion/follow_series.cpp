@@ -66,6 +66,8 @@ void Series::add(const Series& from, std::size_t j) {
   var.push_back(from.var[j]);
   t.push_back(from.t[j]);
   along.push_back(from.along[j]);
+  claim.push_back(from.claim[j]);
+  doubt.push_back(from.doubt[j]);
   fix.push_back(from.fix[j]);
 }
 
@@ -95,9 +97,17 @@ Series gather(const FusionResult& f, const FollowOptions& o) {
   std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
     return f.fixes[a].stamp < f.fixes[b].stamp;
   });
+  // The stamps of the fixes that claimed less than max_std (a float solution, a receiver that
+  // knows it is off): where one lies between two fixes of the series, its status changed.
+  std::vector<double> worse;
+  for (const FixOutcome& x : f.fixes) {
+    if (x.std_given && x.std_dev.allFinite() && x.std_dev.x() > o.max_std) worse.push_back(x.stamp);
+  }
+  std::sort(worse.begin(), worse.end());
   Series s;
   const std::vector<double> path = pathOf(f.poses);
   std::size_t k = 0, kp = 0;
+  double before = -std::numeric_limits<double>::infinity();
   for (std::size_t j : order) {
     const FixOutcome& x = f.fixes[j];
     const double t = x.stamp + f.time_offset;
@@ -107,6 +117,10 @@ Series gather(const FusionResult& f, const FollowOptions& o) {
     s.var.push_back(sd.cwiseProduct(sd) + Vec3::Constant(x.slam_gap * x.slam_gap));
     s.along.push_back(pathAt(f.poses, path, t, kp) + o.time_metres * (t - f.poses.front().stamp));
     s.t.push_back(t);
+    s.claim.push_back(x.std_given ? x.std_dev.x() : std::numeric_limits<double>::quiet_NaN());
+    const auto w = std::upper_bound(worse.begin(), worse.end(), before);
+    s.doubt.push_back(w != worse.end() && *w < x.stamp);
+    before = x.stamp;
     s.fix.push_back(j);
   }
   return s;

@@ -15,10 +15,16 @@ namespace follow {
 using Vec3 = Eigen::Vector3d;
 
 /// The fixes that take part, in instant order: residual from the fused antenna, own variance,
-/// instant, the path to it (time_metres per second added), the input index.
+/// instant, the path to it (time_metres per second added), the std-dev claimed, the input
+/// index.
 struct Series {
   std::vector<Vec3> r, var;
   std::vector<double> t, along;
+  /// The horizontal std-dev each fix came with (NaN where the fusion estimated it).
+  std::vector<double> claim;
+  /// Whether a fix that claimed less than max_std (a float solution, a receiver that knows it
+  /// is off) lies between it and the fix before it in the series: the receiver's status changed.
+  std::vector<bool> doubt;
   std::vector<std::size_t> fix;
   std::size_t size() const { return t.size(); }
   /// Path from the fix before to fix j (0 for the first).

@@ -74,8 +74,9 @@ void Fusion::solveRestampedAt(double shift) {
 
 void Fusion::holdClockWhereTheSpeedsDisagree() {
   out_.time_offset_from_positions = shift_ + dt_;
-  if (out_.clock.loose) return;  // the profiles too loose to overrule the fit
-  const std::optional<double> held = heldClockOffset(shift_ + dt_, clock_);
+  ClockOffsetEstimate speed = out_.clock.speed;
+  speed.sigma = out_.clock.sigma;
+  const std::optional<double> held = heldClockOffset(shift_ + dt_, speed);
   if (!held) return;
   out_.time_offset_held = true;
   solveRestampedAt(*held);

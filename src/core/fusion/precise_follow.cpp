@@ -59,6 +59,21 @@ void judgeTheFixes(FusionResult& f, const Series& s, const Refinement& e) {
   }
 }
 
+/// The runs the refinement followed though far from the SLAM's shape (Refinement::followed).
+std::vector<FusionResult::SlamFailure> slamFailures(const Series& s, const Refinement& e) {
+  std::vector<FusionResult::SlamFailure> out;
+  const std::vector<bool>& followed = e.followed();
+  for (std::size_t j = 0; j < s.size(); ++j) {
+    if (!followed[j]) continue;
+    if (j == 0 || !followed[j - 1]) out.push_back({s.t[j], s.t[j], 0.0, 0});
+    FusionResult::SlamFailure& run = out.back();
+    run.end = s.t[j];
+    run.worst = std::max(run.worst, s.r[j].head<2>().norm());
+    ++run.fixes;
+  }
+  return out;
+}
+
 void medianJitter(FusionResult& f) {
   std::vector<double> h, v;
   for (const auto& x : f.fixes) {
@@ -97,6 +112,7 @@ void followPreciseGnss(FusionResult& f, const FollowOptions& options) {
   f.follow.excess = e.excess();
   for (double p : e.jumps()) f.follow.jumps += p > 0.5;
   for (bool l : e.locked()) f.follow.locked += l;
+  f.follow.slam_failures = slamFailures(s, e);
   moveThePoses(f, s, e);
   judgeTheFixes(f, s, e);
 }
