@@ -16,7 +16,7 @@
 namespace flexcloud::study {
 namespace {
 
-constexpr double kEnds = 5.0;    // s at either end of the drive
+constexpr double kEnds = 20.0;   // s at either end of the drive
 constexpr double kFarFix = 3.0;  // m from the truth: a fix to be rejected
 constexpr double kSameStamp = 1e-6;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();

@@ -38,7 +38,7 @@ double knownLag(const std::string& dir);
 TruthDrive loadTruthDrive(const std::string& dir, const std::string& kind, double shift = 0.0);
 
 /// A result against the truth (horizontal, m): RMSE and MAX over every pose, the MAX in the
-/// drive's first and last 5 s and elsewhere; the fixes that took part in the fusion and how
+/// drive's first and last 20 s and elsewhere; the fixes that took part in the fusion and how
 /// many it rejected, and of those more than 3 m from the truth, how many it rejected.
 struct TruthScore {
   double rmse = 0.0, max = 0.0, ends_max = 0.0, middle_max = 0.0;
