@@ -160,7 +160,7 @@ TEST(ClockOffset, AnOffsetWithinTheRangeCostsOneSolvePerStage) {
 
 /// The clock a fit of positions may not take: further from the speed profiles' offset than
 /// twice their sigma and a SLAM's own lag together it is held at theirs, or at the stamps as
-/// given where theirs is not told from a SLAM's own lag.
+/// given where theirs lies within three of their sigmas of 0.
 TEST(ClockOffset, AFitThatLeavesTheSpeedProfilesIsHeld) {
   ClockOffsetEstimate speeds;
   speeds.observable = true;
@@ -175,11 +175,12 @@ TEST(ClockOffset, AFitThatLeavesTheSpeedProfilesIsHeld) {
   speeds.offset = 0.3148;
   speeds.sigma = 0.0068;
   EXPECT_FALSE(heldClockOffset(0.2954, speeds).has_value());
-  // Profiles within a SLAM's own lag of 0 hold a fit far from them at the stamps as given.
-  speeds.offset = 0.020;
-  speeds.sigma = 0.0068;
-  ASSERT_TRUE(heldClockOffset(-0.080, speeds).has_value());
-  EXPECT_EQ(*heldClockOffset(-0.080, speeds), 0.0);
+  // Profiles within three sigmas of 0 hold a fit far from them at the stamps as given
+  // (Riverside_02 with 1 Hz urban GNSS: 112 +- 38 ms, the fit -9 ms, the truth 48 ms).
+  speeds.offset = 0.1125;
+  speeds.sigma = 0.0379;
+  ASSERT_TRUE(heldClockOffset(-0.009, speeds).has_value());
+  EXPECT_EQ(*heldClockOffset(-0.009, speeds), 0.0);
   // Profiles that show nothing hold nothing.
   speeds.observable = false;
   speeds.sigma = std::numeric_limits<double>::infinity();

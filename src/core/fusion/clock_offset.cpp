@@ -200,7 +200,11 @@ std::optional<double> heldClockOffset(double fitted, const ClockOffsetEstimate& 
                               kClockSignificant * std::hypot(speeds.sigma, kSlamLag))) {
     return std::nullopt;
   }
-  return beyondSlamLag(speeds.offset, speeds.sigma, kClockSignificant) ? speeds.offset : 0.0;
+  // Held at theirs where they tell it from 0 by three of their sigmas, else at the stamps as
+  // given: MulRan Riverside_02 with 1 Hz urban GNSS, 112 +- 38 ms where the truth is 48 ms, held
+  // there 3.14 m RMSE against the truth, at 0 2.56 m.
+  constexpr double kSignificant = 3.0;
+  return std::abs(speeds.offset) > kSignificant * speeds.sigma ? speeds.offset : 0.0;
 }
 
 }  // namespace flexcloud
