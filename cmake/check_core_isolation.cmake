@@ -1,8 +1,9 @@
 # Fails the build when a translation unit of the core library included a ROS header (or our own
 # ROS layer), or, unless ALLOW_IO is set (the io library), an io header: flexcloud's own io
-# headers and sources, PCL, yaml-cpp, PROJ. Reads the compiler's dependency files of the target:
+# headers and sources, PCL, yaml-cpp, PROJ. Reads the compiler's dependency files of the target
+# (*.o.d, which CMake writes from 3.20 on; *.d, which -MD writes beside the objects before):
 #   cmake -DDEP_DIR=<target's CMakeFiles dir> [-DALLOW_IO=ON] -P check_core_isolation.cmake
-file(GLOB_RECURSE depfiles "${DEP_DIR}/*.o.d")
+file(GLOB_RECURSE depfiles "${DEP_DIR}/*.o.d" "${DEP_DIR}/*.cpp.d")
 if(NOT depfiles)
   message(FATAL_ERROR "core isolation check: no dependency files under ${DEP_DIR}")
 endif()

@@ -85,6 +85,11 @@ class ParamTable {
     const auto& r = row(name);
     r.set(s, parseValue(r.spec, text));
   }
+  /// A parameter's value as text (formatValue); throws Error for an unknown name.
+  std::string text(const S& s, const std::string& name) const {
+    const auto& r = row(name);
+    return formatValue(r.spec, r.get(s));
+  }
   /// Every value out of its range or choices, joined by "; "; empty when all are fine.
   std::string validate(const S& s) const {
     std::string out;

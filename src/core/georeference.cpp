@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <functional>
 #include <limits>
+#include <regex>
 #include <sstream>
 
 #include "flexcloud/input/interpolation.h"
@@ -280,12 +281,32 @@ std::string overlapHint(double g0, double g1, double p0, double p1, double given
   return s.str();
 }
 
-/// The GNSS at every pose stamp; throws when no pose has any.
+/// The median interval between consecutive stamps (s; 0 with fewer than two).
+template <typename T>
+double medianInterval(const std::vector<T>& stamped) {
+  std::vector<double> d;
+  for (std::size_t i = 1; i < stamped.size(); ++i)
+    d.push_back(stamped[i].stamp - stamped[i - 1].stamp);
+  return d.empty() ? 0.0 : median(std::move(d));
+}
+
+/// The GNSS at every pose stamp; throws when no pose has any, or when fewer than a quarter do
+/// and the poses come 300 or more times as often or as seldom as the fixes (stamps in another
+/// unit: poses in microseconds counted from 0 overlap the GNSS's seconds at their start).
 void matchGnss(const Params& params, GeoreferenceResult& r) {
   matchGnssAt(0.0, params, r);
+  const double g0 = r.gnss.points.front().stamp, g1 = r.gnss.points.back().stamp;
+  const double p0 = r.poses.front().stamp, p1 = r.poses.back().stamp;
+  const double rate = medianInterval(r.poses) / medianInterval(r.gnss.points);
+  if (4 * r.poses_matched < r.poses.size() && (rate > 300.0 || rate < 1.0 / 300.0)) {
+    const std::string unit = overlapHint(g0, g1, p0, p1, params.gnss_time_offset);
+    if (unit.find("stamps in") != std::string::npos) {
+      throw Error("only " + std::to_string(r.poses_matched) + " of " +
+                  std::to_string(r.poses.size()) + " poses lie within the GNSS's time span: GNSS " +
+                  span(g0, g1) + ", poses " + span(p0, p1) + unit);
+    }
+  }
   if (r.poses_matched == 0) {
-    const double g0 = r.gnss.points.front().stamp, g1 = r.gnss.points.back().stamp;
-    const double p0 = r.poses.front().stamp, p1 = r.poses.back().stamp;
     const bool apart = g1 < p0 || p1 < g0;
     throw Error("no time overlap: GNSS spans " + span(g0, g1) + ", poses span " + span(p0, p1) +
                 (apart ? overlapHint(g0, g1, p0, p1, params.gnss_time_offset)
@@ -638,8 +659,40 @@ std::string inputWarning(const GeoreferenceResult& r) {
 
 }  // namespace
 
+namespace {
+
+std::vector<std::string> stampedWarnings(const GeoreferenceResult& r, const Params& params,
+                                         const WarpStats* map, const std::string& map_frame);
+
+/// Where a warning names a stretch by epoch stamps ("from 1317646096.5 to 1317646120.1 s"), the
+/// seconds into the drive beside them: "(96.5-120.1 s into the drive)".
+std::string withDriveSeconds(const std::string& w, double first) {
+  static const std::regex kStretch(R"(from ([0-9]{7,}\.[0-9]+) to ([0-9]{7,}\.[0-9]+) s)");
+  std::smatch m;
+  if (!std::isfinite(first) || !std::regex_search(w, m, kStretch)) return w;
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(1);
+  s << m.str(0) << " (" << std::stod(m.str(1)) - first << "-" << std::stod(m.str(2)) - first
+    << " s into the drive)";
+  return m.prefix().str() + s.str() + m.suffix().str();
+}
+
+}  // namespace
+
 std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Params& params,
                                         const WarpStats* map, const std::string& map_frame) {
+  std::vector<std::string> out = stampedWarnings(r, params, map, map_frame);
+  const double first =
+      r.poses.empty() ? std::numeric_limits<double>::quiet_NaN() : r.poses.front().stamp;
+  for (std::string& w : out) w = withDriveSeconds(w, first);
+  return out;
+}
+
+namespace {
+
+std::vector<std::string> stampedWarnings(const GeoreferenceResult& r, const Params& params,
+                                         const WarpStats* map, const std::string& map_frame) {
   std::vector<std::string> out;
   if (std::string in = inputWarning(r); !in.empty()) out.push_back(std::move(in));
   auto percent = [](double share) { return std::to_string(std::lround(100.0 * share)) + " %"; };
@@ -706,6 +759,8 @@ std::vector<std::string> resultWarnings(const GeoreferenceResult& r, const Param
   }
   return out;
 }
+
+}  // namespace
 
 std::string toString(Method m) { return m == Method::kFusion ? "fusion" : "gnss"; }
 

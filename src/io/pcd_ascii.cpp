@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <limits>
+#include <type_traits>
 
 #include "flexcloud/types.h"
 
@@ -24,8 +25,17 @@ constexpr std::size_t kSampleBytes = std::size_t{1} << 16;
 /// and hexadecimal floats, decides).
 template <typename T>
 bool fastValue(std::string_view tok, T* v) {
-  const auto r = std::from_chars(tok.data(), tok.data() + tok.size(), *v);
-  return r.ec == std::errc() && r.ptr == tok.data() + tok.size();
+#if !defined(__cpp_lib_to_chars)
+  // libstdc++ before GCC 11 reads no double with from_chars: the C library's reader decides.
+  if constexpr (std::is_floating_point_v<T>) {
+    (void)tok, (void)v;
+    return false;
+  } else
+#endif
+  {
+    const auto r = std::from_chars(tok.data(), tok.data() + tok.size(), *v);
+    return r.ec == std::errc() && r.ptr == tok.data() + tok.size();
+  }
 }
 
 /// A whole token as a double, long long or unsigned long long through the C library.

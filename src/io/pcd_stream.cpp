@@ -1,6 +1,7 @@
 #include "flexcloud/io/pcd_stream.h"
 
 #include <fcntl.h>
+#include <pcl/pcl_config.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -13,15 +14,23 @@
 namespace flexcloud {
 namespace {
 
+// PCL's datatypes of 64-bit integers (PCLPointField::INT64 and UINT64 from PCL 1.13 on; the
+// same numbers kept here for the PCL of Ubuntu 20.04 and Debian 11, which has none: the PCD
+// reader and writer are flexcloud's own, and a ROS PointCloud2 carries no such field).
+constexpr std::uint8_t kInt64 = 9, kUInt64 = 10;
+#if PCL_VERSION_COMPARE(>=, 1, 13, 0)
+static_assert(kInt64 == pcl::PCLPointField::INT64 && kUInt64 == pcl::PCLPointField::UINT64);
+#endif
+
 std::uint8_t pclType(char type, std::size_t size) {
   using F = pcl::PCLPointField;
   switch (type) {
     case 'F':
       return size == 8 ? F::FLOAT64 : F::FLOAT32;
     case 'I':
-      return size == 1 ? F::INT8 : size == 2 ? F::INT16 : size == 4 ? F::INT32 : F::INT64;
+      return size == 1 ? F::INT8 : size == 2 ? F::INT16 : size == 4 ? F::INT32 : kInt64;
     default:
-      return size == 1 ? F::UINT8 : size == 2 ? F::UINT16 : size == 4 ? F::UINT32 : F::UINT64;
+      return size == 1 ? F::UINT8 : size == 2 ? F::UINT16 : size == 4 ? F::UINT32 : kUInt64;
   }
 }
 
@@ -45,9 +54,9 @@ std::pair<char, std::size_t> pcdType(std::uint8_t datatype, const std::string& n
       return {'F', 4};
     case F::FLOAT64:
       return {'F', 8};
-    case F::INT64:
+    case kInt64:
       return {'I', 8};
-    case F::UINT64:
+    case kUInt64:
       return {'U', 8};
     default:
       throw Error("field " + name + ": datatype " + std::to_string(datatype) +

@@ -148,8 +148,7 @@ std::string findPlotScript() {
   std::string rest = prefixes != nullptr ? prefixes : "";
   while (!rest.empty()) {
     const auto colon = rest.find(':');
-    const fs::path candidate =
-        fs::path(rest.substr(0, colon)) / "share/flexcloud/scripts/plot_report.py";
+    const fs::path candidate = fs::path(rest.substr(0, colon)) / "lib/flexcloud/plot_report.py";
     if (fs::exists(candidate)) return candidate.string();
     rest = colon == std::string::npos ? "" : rest.substr(colon + 1);
   }

@@ -5,6 +5,7 @@
 #include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -219,9 +220,17 @@ void appendFixed(std::string& s, double v, int decimals) {
   // The longest fixed text of a double: 309 integer digits, a sign, a point, the decimals.
   std::array<char, 320 + 32> buf;
   decimals = std::clamp(decimals, 0, 32);
+#if defined(__cpp_lib_to_chars)
   const auto r =
       std::to_chars(buf.data(), buf.data() + buf.size(), v, std::chars_format::fixed, decimals);
   s.append(buf.data(), r.ptr);
+#else
+  // libstdc++ before GCC 11 has no to_chars for double: printf rounds the same, exactly
+  // (TextIo's unit test holds to_chars to printf's digits on every value it writes).
+  const int n = std::snprintf(buf.data(), buf.size(), "%.*f", decimals, v);
+  s.append(buf.data(),
+           static_cast<std::size_t>(std::clamp(n, 0, static_cast<int>(buf.size()) - 1)));
+#endif
 }
 
 std::string formatTum(const Trajectory& poses) {
@@ -233,9 +242,9 @@ std::string formatTum(const Trajectory& poses) {
       s += ' ';
       appendFixed(s, p.position(a), 6);
     }
-    for (const double q : p.orientation.coeffs()) {  // x, y, z, w
+    for (int c = 0; c < 4; ++c) {  // x, y, z, w
       s += ' ';
-      appendFixed(s, q, 9);
+      appendFixed(s, p.orientation.coeffs()(c), 9);
     }
     s += '\n';
   }

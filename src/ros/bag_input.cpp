@@ -60,6 +60,17 @@ std::string resolve(const std::string& bag, const std::map<std::string, std::str
   throw Error(bag + ": several " + what + " topics (" + names + "); choose one with " + option);
 }
 
+/// The map topic where the bag holds `given`, else its only PointCloud2 topic, else none.
+std::string mapIfAny(const std::map<std::string, std::string>& types, const std::string& given) {
+  const auto it = types.find(absolute(given));
+  if (it != types.end() && it->second == kCloudType) return it->first;
+  std::vector<std::string> clouds;
+  for (const auto& [topic, type] : types) {
+    if (type == kCloudType) clouds.push_back(topic);
+  }
+  return clouds.size() == 1 ? clouds.front() : "";
+}
+
 /// Checks the vector lengths of a message before the deserializer resizes to them.
 bool lengthsFit(const rosbag::MessageInstance& m, bool (*fits)(const std::uint8_t*, std::size_t),
                 const std::string& bag) {
@@ -94,10 +105,12 @@ BagSummary readBag(const std::string& path, const BagTopics& topics, DriveCollec
                              "odometry", "--odom-topic", fall_back);
     out.odom_type = types.at(out.odom_topic);
     std::vector<std::string> read{out.fix_topic, out.odom_topic};
-    if (!topics.map.empty()) {
+    if (topics.map_if_any) {
+      out.map_topic = mapIfAny(types, topics.map);
+    } else if (!topics.map.empty()) {
       out.map_topic = resolve(path, types, topics.map, {kCloudType}, "map", "--map-topic", false);
-      read.push_back(out.map_topic);
     }
+    if (!out.map_topic.empty()) read.push_back(out.map_topic);
     rosbag::View view(bag, rosbag::TopicQuery(read));
     const std::size_t total = view.size();
     std::size_t done = 0;

@@ -207,15 +207,23 @@ void GeoreferenceNode::readBag() {
   topics.fix = nh_.resolveName("fix");
   topics.odom = nh_.resolveName("odom");
   topics.fall_back_by_type = true;
-  const std::string bag = params().bag;
+  // Without map_file, the bag's own map (on the map topic, or its only PointCloud2 topic).
+  const NodeParams p = params();
+  const std::string bag = p.bag;
+  pcl::PCLPointCloud2 cloud;
+  if (p.map_file.empty()) {
+    topics.map = nh_.resolveName("map");
+    topics.map_if_any = true;
+  }
   std::string error;
   try {
-    const BagSummary s = flexcloud::readBag(bag, topics, collector_, nullptr, [this](double) {
+    const BagSummary s = flexcloud::readBag(bag, topics, collector_, &cloud, [this](double) {
       GuardedLock lock(mutex_);
       if (bag_stop_) throw BagStopped{};
     });
     ROS_INFO("%s: read %zu fixes on %s and %zu poses on %s from %s", name_.c_str(), s.fixes,
              s.fix_topic.c_str(), s.poses, s.odom_topic.c_str(), bag.c_str());
+    if (s.maps > 0) takeBagMap(cloud, s.map_topic);
   } catch (const BagStopped&) {
     return;
   } catch (const Error& e) {
@@ -230,6 +238,24 @@ void GeoreferenceNode::readBag() {
     service_job_ = Job{params_, nullptr, {}};
     wake_.notify_all();
   }
+}
+
+void GeoreferenceNode::takeBagMap(pcl::PCLPointCloud2& cloud, const std::string& topic) {
+  sensor_msgs::PointCloud2Ptr msg(new sensor_msgs::PointCloud2);
+  pcl_conversions::moveFromPCL(cloud, *msg);
+  try {
+    ros_conv::xyzLayout(*msg, "the bag's map on " + topic);
+  } catch (const Error& e) {
+    ROS_ERROR("%s: %s", name_.c_str(), e.what());
+    GuardedLock lock(mutex_);
+    map_error_ = e.what();
+    return;
+  }
+  ROS_INFO("%s: took the map of %u points on %s from the bag", name_.c_str(),
+           msg->width * msg->height, topic.c_str());
+  GuardedLock lock(mutex_);
+  map_ = msg;
+  map_error_.clear();
 }
 
 std::string GeoreferenceNode::readMapFile(const std::string& file, std::uint64_t* points) {
@@ -503,6 +529,7 @@ flexcloud::Georeference::Response GeoreferenceNode::georeference(int control_poi
   auto reply = std::make_shared<std::promise<flexcloud::Result>>();
   auto future = reply->get_future();
   NodeParams params;
+  std::string changed;  // the node's values the request changed: "name was -> now"
   {
     GuardedLock lock(mutex_);
     if (stop_) return refused("the node is shutting down");
@@ -518,8 +545,13 @@ flexcloud::Georeference::Response GeoreferenceNode::georeference(int control_poi
     const auto override_with = [&](const char* name, double value) {
       if (value == 0.0) return std::string();  // 0 keeps the node's value
       const std::string bad = checkParam(name, ParamValue{value, "", {}});
-      if (bad.empty()) nodeParamTable().set(params, name, ParamValue{value, "", {}});
-      return bad;
+      if (!bad.empty()) return bad;
+      const std::string was = nodeParamTable().text(params, name);
+      nodeParamTable().set(params, name, ParamValue{value, "", {}});
+      const std::string now = nodeParamTable().text(params, name);
+      if (now != was)
+        changed += std::string(changed.empty() ? "" : ", ") + name + " " + was + " -> " + now;
+      return std::string();
     };
     const std::string bad = override_with("control_points", control_points) +
                             override_with("stddev_threshold", stddev_threshold);
@@ -529,7 +561,14 @@ flexcloud::Georeference::Response GeoreferenceNode::georeference(int control_poi
   }
   wake_.notify_all();
   pushConfig(params);
-  return toResponse(future.get());
+  if (!changed.empty()) {
+    changed =
+        "the request set " + changed + " (the node keeps them; dynamic_reconfigure shows them)";
+    ROS_INFO_STREAM("flexcloud: " << changed);
+  }
+  flexcloud::Georeference::Response res = toResponse(future.get());
+  if (!changed.empty()) res.message = changed + (res.message.empty() ? "" : "; ") + res.message;
+  return res;
 }
 
 flexcloud::Save::Response GeoreferenceNode::save(const std::string& dir, bool autoware, bool las) {

@@ -138,6 +138,24 @@ TEST(BadInput, NoTimeOverlapSaysSo) {
   EXPECT_LT(georeference(in, given).metrics_rubbersheet.mae, 0.05);
 }
 
+// Poses stamped in microseconds counted from 0, read as seconds, overlap the GNSS's seconds at
+// their start: the error names the stamps' unit, not the std-dev threshold the few poses with
+// GNSS failed on before.
+TEST(BadInput, PosesInMicrosecondsFromZeroNameTheUnit) {
+  const sim::SimDrive d = sim::simulateDrive(small());
+  DriveInput in = inputOf(d);
+  const double t0 = d.params.start_stamp;
+  for (auto& f : in.fixes) f.fix.stamp -= t0;
+  for (auto& p : in.poses) p.stamp = (p.stamp - t0) * 1e6;
+  const std::string e = errorOf(in, Params{});
+  EXPECT_EQ(e.rfind("only ", 0), 0u) << e;
+  EXPECT_NE(e.find("poses lie within the GNSS's time span"), std::string::npos) << e;
+  EXPECT_NE(e.find("are the poses' stamps in us? (the tool's --poses-stamp-unit)"),
+            std::string::npos)
+      << e;
+  EXPECT_EQ(e.find("stddev_threshold"), std::string::npos) << e;
+}
+
 TEST(BadInput, PartialOverlapWarpsEverythingAndCountsTheUnmatched) {
   const sim::SimDrive d = sim::simulateDrive(small());
   DriveInput in = inputOf(d);

@@ -82,6 +82,21 @@ TEST(Bag, ReadsTheBagGeoreferencesAndSaves) {
 /// ~to_ll, ~from_ll and ~to_enu (issue 10) on the running node: SLAM poses go through the sheet
 /// onto the truth (to_enu), to WGS84 and back into the map frame within 1 mm; the enu frame
 /// skips the sheet; a bad frame or a point the sheet cannot reach is answered with the reason.
+/// Without map_file, the bag's own map (bag_map.test: the drive's bag holds it on /map) is the
+/// node's map: the map published after the bag is read is the drive's, georeferenced.
+TEST(BagMap, TheBagsOwnMapIsTakenWithoutAMapFile) {
+  ros::NodeHandle pnh("~");
+  std::string drive;
+  ASSERT_TRUE(pnh.getParam("drive", drive));
+  const auto map = mapAfter(ros::Time(0), 60.0);
+  ASSERT_TRUE(map) << "no map published: the bag's own map was not taken";
+  const pcl::PCLPointCloud2 truth = readPcd(drive + "/truth_map.pcd");
+  EXPECT_EQ(map->width * map->height, truth.width * truth.height);
+  const ErrorStats e = againstTruth(*map, truth);
+  std::printf("bag's own map: map vs truth RMSE %.3f m\n", e.rmse);
+  EXPECT_LE(e.rmse, 0.25);
+}
+
 TEST(Bag, LatLonServicesRoundTripThroughTheSheet) {
   ros::NodeHandle pnh("~");
   std::string drive;

@@ -370,6 +370,31 @@ TEST_F(Live, ARequestOutOfRangeIsRefusedNamingTheField) {
       << bad.message;
 }
 
+/// A request's value becomes the node's and says so: the response's message names what it
+/// changed (it did so silently before), and dynamic_reconfigure shows the new value.
+TEST_F(Live, ARequestThatChangesAValueSaysSo) {
+  publishDrive();
+  ASSERT_TRUE(callWhenComplete().success);
+  dynamic_reconfigure::Client<flexcloud::GeoreferenceConfig> client("/flexcloud");
+  flexcloud::GeoreferenceConfig config;
+  ASSERT_TRUE(client.getCurrentConfiguration(config, ros::Duration(10.0)));
+  const int was = config.control_points;
+  const int asked = was == 60 ? 70 : 60;
+  const auto r = call(asked);
+  ASSERT_TRUE(r.success) << r.message;
+  EXPECT_EQ(r.message.rfind("the request set control_points " + std::to_string(was) + " -> " +
+                                std::to_string(asked),
+                            0),
+            0u)
+      << r.message;
+  const auto same = call(asked);  // the node's value already: nothing to say
+  EXPECT_EQ(same.message.find("the request set"), std::string::npos) << same.message;
+  ASSERT_TRUE(client.getCurrentConfiguration(config, ros::Duration(10.0)));
+  EXPECT_EQ(config.control_points, asked);
+  config.control_points = was;
+  ASSERT_TRUE(client.setConfiguration(config));
+}
+
 /// ~reset forgets the result too (13): the map and paths are withdrawn, ~result says so, and
 /// ~save refuses until a new result exists.
 TEST_F(Live, ResetWithdrawsTheResultAndSaveRefuses) {

@@ -123,6 +123,16 @@ class Packaging(unittest.TestCase):
         self.assertEqual(out.returncode, 0, f"{len(offending)} files need clang-format -i: "
                                             + " ".join(offending))
 
+    def test_catkin_lint_is_clean(self):
+        # -W1: errors and warnings; what CMakeLists.txt ignores, it says why.
+        out = subprocess.run(["catkin_lint", "-q", "-W1", str(ROOT)], capture_output=True,
+                             text=True)
+        self.assertEqual((out.returncode, out.stdout.strip()), (0, ""), out.stdout + out.stderr)
+
+    def test_package_xml_has_no_key_rosdep_lacks(self):
+        # python3-xmlrunner (the scripts' test runner) is no rosdep key: deps.txt lists it.
+        self.assertNotIn("xmlrunner", (ROOT / "package.xml").read_text())
+
 
 if __name__ == "__main__":
     unittest.main()

@@ -29,6 +29,7 @@ NOT_RUN = {
     "scripts/fuzz.sh 600": "ten minutes per target; the suite fuzzes each for 20 s",
     "scripts/benchmark.sh": "minutes on 10 M points; doc/BENCHMARKS.md holds its figures",
     "scripts/accuracy.sh": "a few minutes; the end-to-end tests assert its targets",
+    "scripts/test_platform.sh bullseye": "CI runs it after scripts/test.sh (a chroot, minutes)",
 }
 
 

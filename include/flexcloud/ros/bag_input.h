@@ -14,7 +14,11 @@ namespace flexcloud {
 struct BagTopics {
   std::string fix;   ///< sensor_msgs/NavSatFix
   std::string odom;  ///< nav_msgs/Odometry, geometry_msgs/PoseStamped or nav_msgs/Path
-  std::string map;   ///< sensor_msgs/PointCloud2 (optional; never auto-picked)
+  std::string map;   ///< sensor_msgs/PointCloud2 (optional; never auto-picked but as below)
+  /// The map topic is taken where the bag has it, else the bag's only PointCloud2 topic, else
+  /// none (the node in bag mode: a bag that holds its own map); without it a given map topic
+  /// must be in the bag.
+  bool map_if_any = false;
   /// A given fix or odom topic that is not in the bag falls back to the bag's only topic of a
   /// fitting type (the node's default names), instead of an error (names the user typed).
   bool fall_back_by_type = false;

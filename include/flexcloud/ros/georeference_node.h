@@ -4,6 +4,7 @@
 // thread when asked, shows the result (result_publisher.h). No algorithm lives here.
 
 #include <dynamic_reconfigure/server.h>
+#include <pcl/PCLPointCloud2.h>
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
@@ -80,6 +81,8 @@ class GeoreferenceNode {
   void workerLoop();
   bool waitForJob(Job& job);
   void readBag();
+  /// The map the bag held on `topic` becomes the node's map (as a map file's would).
+  void takeBagMap(pcl::PCLPointCloud2& cloud, const std::string& topic);
   /// Loads `file` into map_; returns the error ("" on success) and the point count.
   std::string readMapFile(const std::string& file, std::uint64_t* points);
   std::shared_ptr<const NodeResult> run(const Job& job, const CancelToken& cancel);

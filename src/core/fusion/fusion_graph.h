@@ -14,6 +14,7 @@
 #include <optional>
 #include <vector>
 
+#include "ceres_compat.h"
 #include "flexcloud/cancel.h"
 #include "flexcloud/fusion/clock_offset.h"
 #include "flexcloud/fusion/fusion.h"
@@ -386,7 +387,7 @@ class Fusion {
   std::shared_ptr<GemanMcClure> loss_;            ///< shared by the copies, which only read it
   std::shared_ptr<GemanMcClure> loss_imprecise_;  ///< for fixes of kPreciseStd or worse
   int solver_threads_;                            ///< Ceres's threads per solve
-  ceres::EigenQuaternionManifold quaternion_;
+  QuaternionBlock quaternion_;
   FusionResult out_;
 };
 

@@ -10,7 +10,7 @@ namespace fusion_graph {
 std::unique_ptr<ceres::Problem> Fusion::makeProblem(std::size_t stride) {
   ceres::Problem::Options options;
   options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  keepBlockShapes(options);
   auto problem = std::make_unique<ceres::Problem>(options);
   for (auto& k : keyframes_) problem->AddParameterBlock(k.q, 4, &quaternion_);
   addOdometry(*problem);
