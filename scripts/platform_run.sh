@@ -33,4 +33,14 @@ done
    ROS_MASTER_URI=http://localhost:11471 ROS_HOSTNAME=localhost &&
   in_workspace rostest flexcloud live.test) > /results/live.log 2>&1 || rc=1
 say "live.test: $(grep -E '^ \* RESULT:|SUMMARY' /results/live.log | tr '\n' ' ')"
+# The offline tool on a simulated drive, for scripts/test_platform.sh to hold against this
+# machine's build: the same digits where the libraries compute the same.
+"${bin}/simulate_drive" --out /results/tool/drive --seed 4 --length 2000 --map-points 20000 \
+  > /results/tool.log 2>&1 || rc=1
+for run in defaults:fusion=true fusion_false:fusion=false; do
+  "${bin}/georeference" --gnss /results/tool/drive/gnss.txt --poses \
+    /results/tool/drive/slam_trajectory.txt --map /results/tool/drive/map.pcd --datum 48.262 \
+    11.667 480 --set "${run#*:}" --set report_png=false -q --out "/results/tool/${run%%:*}" \
+    >> /results/tool.log 2>&1 || rc=1
+done
 exit "${rc}"

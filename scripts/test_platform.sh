@@ -104,5 +104,23 @@ chroot "${root}" /usr/bin/env -i PATH=/usr/bin:/bin:/usr/sbin:/sbin HOME=/root L
   > "${results}/run.log" 2>&1
 rc=$?
 grep -E "^\[platform\]" "${results}/run.log" >&2 || true
+
+# The same tool runs on this machine's build (scripts/test.sh's), held against the platform's.
+here_bin="${FLEXCLOUD_WS}/devel/lib/flexcloud"
+if [ -x "${here_bin}/georeference" ] && [ -d "${results}/tool/drive" ]; then
+  here="$(mktemp -d)"
+  "${here_bin}/simulate_drive" --out "${here}/drive" --seed 4 --length 2000 --map-points 20000 \
+    > /dev/null 2>&1
+  for run in defaults:fusion=true fusion_false:fusion=false; do
+    "${here_bin}/georeference" --gnss "${here}/drive/gnss.txt" --poses \
+      "${here}/drive/slam_trajectory.txt" --map "${here}/drive/map.pcd" --datum 48.262 11.667 480 \
+      --set "${run#*:}" --set report_png=false -q --out "${here}/${run%%:*}" > /dev/null 2>&1
+  done
+  python3 "${FLEXCLOUD_ROOT}/scripts/compare_platforms.py" "${here}" "${results}/tool" \
+    "${results}/platform_outputs.xml" 0.001 >&2
+  rm -rf "${here}"
+else
+  log "${release}: no build of this machine's to hold the tool's outputs against (scripts/build.sh)"
+fi
 record_exit "${rc}" "platform-${release}" "${results}" "${results}/run.log"
 python3 "${FLEXCLOUD_ROOT}/scripts/count_results.py" "${results}"

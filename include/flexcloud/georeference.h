@@ -105,6 +105,8 @@ struct GeoreferenceResult {
   RevisitCheck revisits;
   /// How far each pose of `rubbersheet` may lie from the truth (pose_sigma.h).
   PoseSigmas sigma;
+  /// max_sigma_h of the run (m): a result none of whose poses is known within it is degraded.
+  double max_sigma_h = 0.0;
   /// The SLAM's white jitter from pose to pose as measured, and the smoothing that took it out
   /// of `rubbersheet` and the fused trajectory (with params.smooth_jitter), and per pose what is
   /// left of it there (m, per horizontal axis; 0 where none is seen).
@@ -133,7 +135,8 @@ double shareFarFromPoses(const GeoreferenceResult& r, const WarpStats& map, doub
 
 /// Why the result cannot be right, one line each (none: it may be): more than four in five of
 /// the fixes the fusion judged rejected; a rigid scale more than 5 % from 1 (beyond any SLAM's
-/// scale error: the GNSS of another drive, or a map not in metres); with a map, more than half of
+/// scale error: the GNSS of another drive, or a map not in metres); no pose known within a
+/// hundred times max_sigma_h (fixes that all claim a kilometre); with a map, more than half of
 /// it farther than 50 m from every pose.
 std::vector<std::string> degradedReasons(const GeoreferenceResult& r, const WarpStats* map,
                                          const std::string& map_frame);

@@ -602,6 +602,24 @@ std::string mostFixesRejected(const GeoreferenceResult& r) {
          " fixes rejected: the GNSS and the SLAM disagree on most of the drive";
 }
 
+/// Where not one pose is known within a hundred times max_sigma_h (50 m at its default): the
+/// fixes that placed the result claim no more (a receiver whose every fix claims a kilometre
+/// gave a sigma of 866 km and a result all the same). Ordinary GNSS of a metre or two leaves
+/// its poses within a metre or so: uncertain, and warned of as such, not degraded.
+std::string uncertainEverywhere(const GeoreferenceResult& r) {
+  constexpr double kHopeless = 100.0;
+  if (!(r.max_sigma_h > 0.0) || r.sigma.h.empty()) return "";
+  const double least = *std::min_element(r.sigma.h.begin(), r.sigma.h.end());
+  if (!(least > kHopeless * r.max_sigma_h)) return "";
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(3);
+  s << "no pose is known within " << static_cast<int>(kHopeless) << " times max_sigma_h ("
+    << kHopeless * r.max_sigma_h << " m): the least uncertain may lie " << least
+    << " m from the truth (1-sigma per axis), as the GNSS it rests on claims";
+  return s.str();
+}
+
 /// The rigid scale where it lies more than 5 % from 1.
 std::string scaleOff(const GeoreferenceResult& r) {
   if (!(std::abs(r.scale - 1.0) > 0.05)) return "";
@@ -618,7 +636,7 @@ std::string scaleOff(const GeoreferenceResult& r) {
 std::vector<std::string> degradedReasons(const GeoreferenceResult& r, const WarpStats* map,
                                          const std::string& map_frame) {
   std::vector<std::string> out;
-  for (std::string reason : {mostFixesRejected(r), scaleOff(r)}) {
+  for (std::string reason : {mostFixesRejected(r), scaleOff(r), uncertainEverywhere(r)}) {
     if (!reason.empty()) out.push_back(std::move(reason));
   }
   if (const double far = map ? shareFarFromPoses(r, *map, kFarFromPoses) : 0.0; far > 0.5) {
@@ -1048,6 +1066,7 @@ GeoreferenceResult georeference(const DriveInput& input, const Params& given,
   sigma_context.jitter = &r.jitter_left;
   sigma_context.slam_white = r.jitter.seen ? r.jitter.white : 0.0;
   r.sigma = poseSigmas(r.rubbersheet, r.aligned, sigmaFixes(r, params), sigma_context);
+  r.max_sigma_h = params.max_sigma_h;
   // A control point on the fused trajectory takes the sigma of its pose (3D) as its std-dev.
   if (r.method == Method::kFusion) {
     for (auto& cp : r.control_points.points) {

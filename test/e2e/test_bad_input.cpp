@@ -156,6 +156,31 @@ TEST(BadInput, PosesInMicrosecondsFromZeroNameTheUnit) {
   EXPECT_EQ(e.find("stddev_threshold"), std::string::npos) << e;
 }
 
+// Fixes that all claim a kilometre place the result with that uncertainty: no pose is known
+// within a hundred times max_sigma_h, and the result is degraded (refused unless
+// accept_degraded), where it was a result like any other, its sigma 866 km. Fixes that claim a
+// metre are ordinary GNSS: uncertain, not degraded.
+TEST(BadInput, FixesThatAllClaimAKilometreAreADegradedResult) {
+  const sim::SimDrive d = sim::simulateDrive(small());
+  DriveInput in = inputOf(d);
+  for (auto& f : in.fixes) f.fix.std_enu = Eigen::Vector3d::Constant(1e6);
+  Params p = atSimDatum(d);
+  const GeoreferenceResult r = georeference(in, p);
+  EXPECT_GT(r.sigma.median_h, 100.0);
+  const std::string e = test::errorOf([&] { checkDegraded(r, p, nullptr, "map"); });
+  EXPECT_EQ(e.rfind("the result cannot be right: no pose is known within 100 times max_sigma_h "
+                    "(50.000 m): the least uncertain may lie 866025.404 m",
+                    0),
+            0u)
+      << e;
+  p.accept_degraded = true;
+  EXPECT_NO_THROW(checkDegraded(r, p, nullptr, "map"));
+  // Fixes of a metre: poses known within it, no such line.
+  for (auto& f : in.fixes) f.fix.std_enu = Eigen::Vector3d(1.0, 1.0, 2.0);
+  p.accept_degraded = false;
+  EXPECT_NO_THROW(checkDegraded(georeference(in, p), p, nullptr, "map"));
+}
+
 TEST(BadInput, PartialOverlapWarpsEverythingAndCountsTheUnmatched) {
   const sim::SimDrive d = sim::simulateDrive(small());
   DriveInput in = inputOf(d);
