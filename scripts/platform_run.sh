@@ -32,7 +32,7 @@ done
 (export ROS_TEST_RESULTS_DIR=/results/ros ROS_LOG_DIR=/results/ros_log ROS_HOME=/results/ros_home \
    ROS_MASTER_URI=http://localhost:11471 ROS_HOSTNAME=localhost &&
   in_workspace rostest flexcloud live.test) > /results/live.log 2>&1 || rc=1
-say "live.test: $(grep -E '^ \* RESULT:|SUMMARY' /results/live.log | tr '\n' ' ')"
+say "live.test: $(grep -E 'RESULT:|TESTS:|ERRORS:|FAILURES:' /results/live.log | sed 's/\x1b\[[0-9;]*m//g' | tr -s ' \n' ' ')"
 # The offline tool on a simulated drive, for scripts/test_platform.sh to hold against this
 # machine's build: the same digits where the libraries compute the same.
 "${bin}/simulate_drive" --out /results/tool/drive --seed 4 --length 2000 --map-points 20000 \
