@@ -77,7 +77,7 @@ if [ "${sanitize}" = 1 ]; then
   SANITIZE_FILTER+=":Tools.AnInterruptedWarp*:Tools.AKilledRun*"
   SANITIZE_FILTER+=":Tools.AsciiMaps*:Tools.CompressedMaps*:Scenarios/SlamFailures.*"
   SANITIZE_FILTER+=":Clock.*:Revisits.*:GnssLateAndEarly.*:Monza.*:TruthDrives.*:MulranDrives.*"
-  SANITIZE_FILTER+=":SigmaCalibration.*"
+  SANITIZE_FILTER+=":SigmaCalibration.*:TruthMaps.*"
   for t in flexcloud_unit_tests flexcloud_e2e_tests; do
     log "running ${t} under AddressSanitizer and UndefinedBehaviorSanitizer"
     (ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \

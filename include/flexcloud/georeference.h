@@ -169,8 +169,13 @@ double estimatedClockSigma(const GeoreferenceResult& r);
 /// The interpolated GNSS at every matched pose, stamped like the pose (identity orientation).
 Trajectory gnssTrajectory(const GeoreferenceResult& r);
 
-/// A pose through the sheet: the position warped, the orientation turned by the rotation nearest
-/// to the local linear part. `hint` carries the tetrahedron of the previous pose (0 to start).
+/// The rotation the sheet applies around `at` (map frame): the rigid fit of six points 5 m
+/// either side of it along the axes to their images.
+Eigen::Matrix3d sheetRotationAt(const RubberSheet& sheet, const Eigen::Vector3d& at);
+
+/// A pose through the sheet: the position warped, the orientation turned by the sheet's
+/// rotation around it (sheetRotationAt). `hint` carries the tetrahedron of the previous pose
+/// (0 to start).
 Pose warpPose(const RubberSheet& sheet, const Pose& p, int& hint);
 
 /// The rotation nearest to a linear map (polar decomposition).

@@ -18,6 +18,7 @@
 #include "flexcloud/sim/truth_metrics.h"
 #include "real_drives.h"
 #include "truth_drives.h"
+#include "truth_maps.h"
 
 namespace {
 
@@ -47,10 +48,18 @@ errors against the ground truth (doc/ACCURACY.md).
                             trajectory against the truth at the poses' true instants: horizontal
                             RMSE, MAX, MAX in the first and last 20 s and elsewhere, fixes
                             rejected of those that took part, fixes more than 3 m off the truth
-                            rejected, the clock's error; then how the defaults' pose sigmas
+                            rejected, the clock's error, the 95th percentile of the
+                            orientations' angle from the truth; then how the defaults' pose sigmas
                             cover the errors: the shares within 2.45 sigma_h and 1.96 sigma_v,
                             the band calibrated sigmas show on as many independent samples,
                             per drive and pooled
+  --truth-maps DIR[,DIR...]
+                            instead: on the same drives, a map as a LiDAR SLAM makes it (a scan
+                            every 5th pose, the ground, walls and poles 2-50 m out, placed by the
+                            SLAM's poses; its truth placed by the true poses), moved by the
+                            defaults' rubber sheet and by each point's own fused pose: horizontal
+                            and vertical RMSE / p95 / MAX, by distance from the point's pose and
+                            away from revisits (m)
   --shift S                 with --truth-drives: the poses' stamps moved by S seconds (a known
                             clock offset) (default 0)
   -h, --help
@@ -67,6 +76,7 @@ struct Options {
   std::vector<std::string> real;
   std::size_t holdout = 4;
   std::vector<std::string> truth_drives;
+  std::vector<std::string> truth_maps;
   double shift = 0.0;
 };
 
@@ -90,6 +100,8 @@ Options parse(int argc, char** argv) {
       o.real = cli::items(a.text(f));
     } else if (f == "--truth-drives") {
       o.truth_drives = cli::items(a.text(f));
+    } else if (f == "--truth-maps") {
+      o.truth_maps = cli::items(a.text(f));
     } else if (f == "--shift") {
       o.shift = a.number(f);
     } else if (f == "--holdout") {
@@ -153,10 +165,15 @@ int main(int argc, char** argv) {
   flexcloud::keepFreedMemory();
   try {
     const Options o = parse(argc, argv);
+    if (!o.truth_maps.empty()) {
+      study::printTruthMapRows(o.truth_maps, o.control_points, o.sets);
+      return 0;
+    }
     if (!o.truth_drives.empty()) {
       std::printf(
           "| drive | method | RMSE | MAX | MAX first/last 20 s | MAX elsewhere | fixes rejected | "
-          "of those 3 m off | clock error |\n|---|---|---:|---:|---:|---:|---:|---:|---:|\n");
+          "of those 3 m off | clock error | orientation p95 (deg) |\n"
+          "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n");
       study::printTruthDriveRows(o.truth_drives, o.control_points, o.sets, o.shift);
       return 0;
     }

@@ -93,6 +93,16 @@ TruthScore scoreAgainstTruth(const TruthDrive& d, const GeoreferenceResult& r) {
   const ErrorStats e = all.stats();
   s.rmse = e.rmse;
   s.max = e.max;
+  std::vector<double> turns;
+  for (std::size_t i = 0; i < d.truth_at_pose.size() && i < r.rubbersheet.size(); ++i) {
+    if (!d.truth_at_pose[i].position.allFinite()) continue;
+    turns.push_back(r.rubbersheet[i].orientation.angularDistance(d.truth_at_pose[i].orientation) *
+                    180.0 / M_PI);
+  }
+  if (!turns.empty()) {
+    std::sort(turns.begin(), turns.end());
+    s.turn_p95 = turns[static_cast<std::size_t>(0.95 * static_cast<double>(turns.size() - 1))];
+  }
   if (!r.fusion) return s;
   for (const FixOutcome& o : r.fusion->fixes) {
     if (o.verdict != FixVerdict::kUsed && o.verdict != FixVerdict::kOutlier) continue;
@@ -197,10 +207,10 @@ void printTruthDriveRows(const std::vector<std::string>& dirs, int control_point
         if (method == "defaults") {
           calibration.push_back({d.name, sigmaCoverage(d, r), r.sigma.median_h, s.rmse});
         }
-        std::printf("| %s | %s | %.3f | %.3f | %.3f | %.3f | %zu / %zu | %zu / %zu | %+.1f ms |\n",
-                    d.name.c_str(), method.c_str(), s.rmse, s.max, s.ends_max, s.middle_max,
-                    s.rejected, s.fixes, s.far_rejected, s.far,
-                    1e3 * (r.clock_offset - shift + d.lag));
+        std::printf(
+            "| %s | %s | %.3f | %.3f | %.3f | %.3f | %zu / %zu | %zu / %zu | %+.1f ms | %.2f |\n",
+            d.name.c_str(), method.c_str(), s.rmse, s.max, s.ends_max, s.middle_max, s.rejected,
+            s.fixes, s.far_rejected, s.far, 1e3 * (r.clock_offset - shift + d.lag), s.turn_p95);
         std::fflush(stdout);
       }
     }

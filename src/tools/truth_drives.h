@@ -39,9 +39,11 @@ TruthDrive loadTruthDrive(const std::string& dir, const std::string& kind, doubl
 
 /// A result against the truth (horizontal, m): RMSE and MAX over every pose, the MAX in the
 /// drive's first and last 20 s and elsewhere; the fixes that took part in the fusion and how
-/// many it rejected, and of those more than 3 m from the truth, how many it rejected.
+/// many it rejected, and of those more than 3 m from the truth, how many it rejected; how far
+/// the orientations turn from the truth.
 struct TruthScore {
   double rmse = 0.0, max = 0.0, ends_max = 0.0, middle_max = 0.0;
+  double turn_p95 = 0.0;  ///< deg: the 95th percentile of the orientations' angle from the truth
   std::size_t fixes = 0, rejected = 0, far = 0, far_rejected = 0;
 };
 TruthScore scoreAgainstTruth(const TruthDrive& d, const GeoreferenceResult& r);

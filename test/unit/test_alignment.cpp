@@ -1,7 +1,10 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <random>
 
+#include "flexcloud/input/trajectory.h"
 #include "flexcloud/sheet/alignment.h"
 
 namespace flexcloud {
@@ -64,6 +67,49 @@ TEST(Umeyama, StraightLineTakesTheSmallestRotation) {
   }
   const Similarity s = umeyama(src, dst, {}, false);
   EXPECT_LT((s.rotation - r).norm(), 1e-9);  // no roll about the line is invented
+}
+
+// A nearly straight drive (KITTI 04: 400 m, its GNSS a few centimetres off a line): the roll
+// about the line is noise, and the fit keeps the source's up as up instead of taking it (it
+// rolled 04 by 11 degrees). The line itself lands where the target's lies.
+TEST(Umeyama, ANearlyStraightLineKeepsTheSourcesUp) {
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.03);
+  const Eigen::Matrix3d r(Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ()));
+  std::vector<Eigen::Vector3d> src, dst;
+  for (int i = 0; i < 200; ++i) {
+    src.emplace_back(2.0 * i, 0.002 * i, 0.0);
+    dst.push_back(r * src.back() + Eigen::Vector3d(noise(rng), noise(rng), noise(rng)));
+  }
+  const Similarity s = umeyama(src, dst, {}, false);
+  const double tilt = std::acos(std::clamp((s.rotation * Eigen::Vector3d::UnitZ()).z(), -1.0, 1.0));
+  EXPECT_LT(tilt, 1e-3);  // radians
+  EXPECT_LT((s.rotation * Eigen::Vector3d::UnitX() - r * Eigen::Vector3d::UnitX()).norm(), 1e-3);
+}
+
+// The body axes from the motion: KITTI's poses (a camera, relabelled z up) move along their +y,
+// MulRan's (a LiDAR facing back) along their -x; a standing drive keeps x, y, z.
+TEST(BodyAxes, FoundFromTheMotion) {
+  const auto drive = [](double yaw) {
+    Trajectory t;
+    for (int i = 0; i < 50; ++i) {
+      Pose p;
+      p.stamp = 0.1 * i;
+      p.position = Eigen::Vector3d(1.0 * i, 0.02 * std::sin(0.3 * i), 0.0);
+      p.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));
+      t.push_back(p);
+    }
+    return t;
+  };
+  const BodyAxes kitti = bodyAxes(drive(-M_PI / 2));  // the body's +y along the world's +x
+  EXPECT_LT((kitti.ahead - Eigen::Vector3d::UnitY()).norm(), 0.01);
+  EXPECT_LT((kitti.up - Eigen::Vector3d::UnitZ()).norm(), 1e-9);
+  EXPECT_LT((kitti.left + Eigen::Vector3d::UnitX()).norm(), 0.01);
+  const BodyAxes mulran = bodyAxes(drive(M_PI));
+  EXPECT_LT((mulran.ahead + Eigen::Vector3d::UnitX()).norm(), 0.01);
+  Trajectory still = drive(0.3);
+  for (auto& p : still) p.position.setZero();
+  EXPECT_EQ(bodyAxes(still).ahead, Eigen::Vector3d::UnitX());
 }
 
 TEST(Umeyama, TooFewOrCoincidentPointsAreAnError) {

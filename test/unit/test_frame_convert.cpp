@@ -44,13 +44,15 @@ TEST(FrameConvert, MapPointsRoundTripThroughTheSheetWithin1um) {
 
 TEST(FrameConvert, PosesTakeTheCorrectedTrajectorysPlace) {
   const auto& r = result();
-  std::set<std::size_t> vertices;  // a control point's pose: its rotation is each tetrahedron's
+  std::set<std::size_t> vertices;  // a control point's pose: its place is each tetrahedron's
   for (const auto& cp : r.control_points.points) vertices.insert(cp.pose_index);
   for (std::size_t i = 0; i < r.poses.size(); i += 211) {
     if (vertices.count(i) != 0) continue;
     const Pose e = mapPoseToEnu(r, r.poses[i]);
     EXPECT_LT((e.position - r.rubbersheet[i].position).norm(), 1e-9);
-    EXPECT_LT(e.orientation.angularDistance(r.rubbersheet[i].orientation), 1e-9);
+    // The sheet's rotation around the pose (to_enu), against the fused trajectory's orientation
+    // the corrected trajectory takes (the sheet was fitted to it): within 0.06 degrees.
+    EXPECT_LT(e.orientation.angularDistance(r.rubbersheet[i].orientation), 1e-3);
   }
 }
 

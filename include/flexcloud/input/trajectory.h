@@ -25,6 +25,17 @@ Trajectory preparePoses(const Trajectory& poses, PoseCounts& counts);
 /// The poses dropped, in words by reason; empty when none was.
 std::string droppedInWords(const PoseCounts& counts);
 
+/// The axes of the poses' body frame as the vehicle moves: `ahead` the mean direction of the
+/// motion seen in the body frame, `up` the body axis nearest the map frame's z, `left` = up x
+/// ahead (the poses may be of a camera, ahead along its y or z, or of a LiDAR mounted facing
+/// back: KITTI's poses move along +y, MulRan's along -x). x, y, z where the poses do not move.
+struct BodyAxes {
+  Eigen::Vector3d ahead = Eigen::Vector3d::UnitX();
+  Eigen::Vector3d left = Eigen::Vector3d::UnitY();
+  Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
+};
+BodyAxes bodyAxes(const Trajectory& poses);
+
 /// Cumulative path length (m) at each position, starting at 0.
 std::vector<double> arcLength(const std::vector<Eigen::Vector3d>& positions);
 

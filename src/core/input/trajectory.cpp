@@ -52,6 +52,25 @@ std::string droppedInWords(const PoseCounts& c) {
   return out;
 }
 
+BodyAxes bodyAxes(const Trajectory& poses) {
+  constexpr double kLeastStep = 0.05;  // m between poses that show the motion's direction
+  Eigen::Vector3d ahead = Eigen::Vector3d::Zero(), up = Eigen::Vector3d::Zero();
+  for (std::size_t i = 1; i < poses.size(); ++i) {
+    const Eigen::Vector3d step = poses[i].position - poses[i - 1].position;
+    if (!(step.norm() >= kLeastStep)) continue;
+    const Eigen::Matrix3d r = poses[i].orientation.normalized().toRotationMatrix();
+    ahead += r.transpose() * step.normalized();
+    up += r.transpose() * Eigen::Vector3d::UnitZ();
+  }
+  BodyAxes a;
+  if (!(ahead.norm() > 0.0)) return a;
+  a.ahead = ahead.normalized();
+  const Eigen::Vector3d level = up - up.dot(a.ahead) * a.ahead;
+  a.up = level.norm() > 0.0 ? level.normalized() : a.ahead.unitOrthogonal();
+  a.left = a.up.cross(a.ahead).normalized();
+  return a;
+}
+
 std::vector<double> arcLength(const std::vector<Eigen::Vector3d>& positions) {
   std::vector<double> s(positions.size(), 0.0);
   for (std::size_t i = 1; i < positions.size(); ++i) {

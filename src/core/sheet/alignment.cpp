@@ -16,6 +16,11 @@ Eigen::Isometry3d Similarity::rigid() const {
   return t;
 }
 
+namespace {
+// Below this ratio of the second spread (singular value) to the first, the points lie on a line.
+constexpr double kLine = 1e-3;
+}  // namespace
+
 Similarity umeyama(const std::vector<Eigen::Vector3d>& src, const std::vector<Eigen::Vector3d>& dst,
                    const std::vector<double>& weights, bool with_scale) {
   if (src.size() != dst.size() || (!weights.empty() && weights.size() != src.size())) {
@@ -57,14 +62,19 @@ Similarity umeyama(const std::vector<Eigen::Vector3d>& src, const std::vector<Ei
   if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0.0) d.z() = -1.0;
   Similarity out;
   const Eigen::Vector3d sv = svd.singularValues();
-  if (sv(1) <= 1e-9 * sv(0)) {
-    // A straight-line trajectory: the roll about the line is unobservable, so take the smallest
-    // rotation that turns the source line onto the target line.
+  out.rotation = svd.matrixU() * d.asDiagonal() * svd.matrixV().transpose();
+  if (sv(1) <= kLine * sv(0)) {
+    // A straight-line trajectory: the roll about the line is not observed (KITTI 04, 400 m
+    // straight: the fit rolled it 11.5 degrees, and every point beside the road with it). The
+    // line is turned onto the target's, and about it the source's up kept up.
     const Eigen::Vector3d a = svd.matrixV().col(0);
-    const Eigen::Vector3d b = svd.matrixU().col(0);
-    out.rotation = Eigen::Quaterniond::FromTwoVectors(a, b).toRotationMatrix();
-  } else {
-    out.rotation = svd.matrixU() * d.asDiagonal() * svd.matrixV().transpose();
+    const Eigen::Vector3d b = (out.rotation * a).normalized();
+    const Eigen::Vector3d up = out.rotation * Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d from = up - up.dot(b) * b, to = Eigen::Vector3d::UnitZ() - b.z() * b;
+    if (from.norm() > 1e-9 && to.norm() > 1e-9) {
+      const double angle = std::atan2(b.dot(from.cross(to)), from.dot(to));
+      out.rotation = Eigen::AngleAxisd(angle, b).toRotationMatrix() * out.rotation;
+    }
   }
   out.scale = with_scale ? svd.singularValues().dot(d) / var_src : 1.0;
   out.translation = mu_dst - out.scale * out.rotation * mu_src;

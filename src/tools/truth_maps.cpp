@@ -1,0 +1,202 @@
+#include "truth_maps.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <random>
+#include <tuple>
+
+#include "flexcloud/input/trajectory.h"
+#include "flexcloud/param_table.h"
+#include "flexcloud/params.h"
+
+namespace flexcloud::study {
+namespace {
+
+constexpr double kRevisitRadius = 30.0;  // m
+constexpr double kOtherPass = 60.0;      // s between two poses of different passes
+constexpr double kSensorHeight = 1.7;    // m above the road
+constexpr double kBandEdges[kBands + 1] = {0.0, 10.0, 30.0, 50.0};
+
+Eigen::Isometry3d isometryOf(const Pose& p) {
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.linear() = p.orientation.normalized().toRotationMatrix();
+  t.translation() = p.position;
+  return t;
+}
+
+/// A body-frame offset a car's LiDAR sees: ground below (4 in 10), a wall beside (4 in 10), a
+/// pole (2 in 10), 2-50 m out.
+Eigen::Vector3d scanOffset(const BodyAxes& a, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const double kind = u(rng), side = u(rng) < 0.5 ? -1.0 : 1.0;
+  double along, across, height;
+  if (kind < 0.4) {  // the road and the ground beside it
+    const double r = 2.0 + 28.0 * u(rng) * u(rng), bearing = 2.0 * M_PI * u(rng);
+    along = r * std::cos(bearing), across = r * std::sin(bearing);
+    height = -kSensorHeight + 0.1 * (u(rng) - 0.5);
+  } else if (kind < 0.8) {  // walls, facades, embankments
+    along = -30.0 + 60.0 * u(rng);
+    across = side * (4.0 + 46.0 * u(rng));
+    height = -kSensorHeight + 6.0 * u(rng);
+  } else {  // poles, trees, signs
+    along = -20.0 + 40.0 * u(rng);
+    across = side * (3.0 + 12.0 * u(rng));
+    height = -kSensorHeight + 5.0 * u(rng);
+  }
+  const double r = std::hypot(along, across);
+  if (r > 50.0) along *= 50.0 / r, across *= 50.0 / r;
+  return along * a.ahead + across * a.left + height * a.up;
+}
+
+/// Positions by cell, with the stamp of each: whether a position of another pass lies near.
+class PassGrid {
+ public:
+  PassGrid(const std::vector<Eigen::Vector3d>& at, const std::vector<double>& stamp) {
+    for (std::size_t i = 0; i < at.size(); ++i) {
+      if (at[i].allFinite()) cells_[cell(at[i])].push_back({at[i], stamp[i]});
+    }
+  }
+  bool otherPassNear(const Eigen::Vector3d& q, double stamp) const {
+    const auto c = cell(q);
+    for (int dx = -1; dx <= 1; ++dx) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        const auto it = cells_.find({std::get<0>(c) + dx, std::get<1>(c) + dy});
+        if (it == cells_.end()) continue;
+        for (const auto& [p, t] : it->second) {
+          if (std::abs(t - stamp) > kOtherPass && (p - q).head<2>().norm() < kRevisitRadius) {
+            return true;
+          }
+        }
+      }
+    }
+    return false;
+  }
+
+ private:
+  static std::tuple<long, long> cell(const Eigen::Vector3d& p) {
+    return {static_cast<long>(std::floor(p.x() / kRevisitRadius)),
+            static_cast<long>(std::floor(p.y() / kRevisitRadius))};
+  }
+  std::map<std::tuple<long, long>, std::vector<std::pair<Eigen::Vector3d, double>>> cells_;
+};
+
+Spread spreadOf(std::vector<double> e) {
+  Spread s;
+  s.points = e.size();
+  if (e.empty()) return s;
+  double sq = 0.0;
+  for (double x : e) sq += x * x;
+  s.rmse = std::sqrt(sq / static_cast<double>(e.size()));
+  std::sort(e.begin(), e.end());
+  s.p95 = e[static_cast<std::size_t>(0.95 * static_cast<double>(e.size() - 1))];
+  s.max = e.back();
+  return s;
+}
+
+void printSpread(const Spread& h, const Spread& v) {
+  std::printf(" %.3f / %.3f / %.2f | %.3f / %.3f / %.2f |", h.rmse, h.p95, h.max, v.rmse, v.p95,
+              v.max);
+}
+
+}  // namespace
+
+DriveMap makeDriveMap(const TruthDrive& d, std::size_t every, std::size_t per_scan,
+                      std::uint64_t seed) {
+  DriveMap m;
+  const Trajectory& poses = d.input.poses;
+  const BodyAxes axes = bodyAxes(poses);
+  std::mt19937_64 rng(seed);
+  std::vector<Eigen::Vector3d> slam_at, truth_at;
+  std::vector<double> stamps;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    slam_at.push_back(poses[i].position);
+    truth_at.push_back(d.truth_at_pose[i].position);
+    stamps.push_back(poses[i].stamp);
+  }
+  const PassGrid by_truth(truth_at, stamps), by_slam(slam_at, stamps);
+  for (std::size_t i = 0; i < poses.size(); i += std::max<std::size_t>(1, every)) {
+    if (!d.truth_at_pose[i].position.allFinite()) continue;
+    const Eigen::Isometry3d s = isometryOf(poses[i]), t = isometryOf(d.truth_at_pose[i]);
+    for (std::size_t k = 0; k < per_scan; ++k) {
+      const Eigen::Vector3d o = scanOffset(axes, rng);
+      m.slam.push_back(s * o);
+      m.truth.push_back(t * o);
+      m.pose.push_back(i);
+      m.range.push_back(static_cast<float>((o - o.dot(axes.up) * axes.up).norm()));
+      m.revisit.push_back(by_truth.otherPassNear(m.truth.back(), poses[i].stamp) ||
+                          by_slam.otherPassNear(m.slam.back(), poses[i].stamp));
+    }
+  }
+  return m;
+}
+
+MapScore scoreMap(
+    const DriveMap& m,
+    const std::function<Eigen::Vector3d(const Eigen::Vector3d&, std::size_t)>& place) {
+  std::vector<double> h, v, bh[kBands], bv[kBands], ah, av;
+  for (std::size_t k = 0; k < m.slam.size(); ++k) {
+    // A SLAM writes its map in float32.
+    const Eigen::Vector3d e = place(m.slam[k].cast<float>().cast<double>(), k) - m.truth[k];
+    const double eh = e.head<2>().norm(), ev = std::abs(e.z());
+    h.push_back(eh), v.push_back(ev);
+    for (int b = 0; b < kBands; ++b) {
+      if (m.range[k] >= kBandEdges[b] && m.range[k] < kBandEdges[b + 1]) {
+        bh[b].push_back(eh), bv[b].push_back(ev);
+      }
+    }
+    if (!m.revisit[k]) ah.push_back(eh), av.push_back(ev);
+  }
+  MapScore s;
+  s.h = spreadOf(std::move(h)), s.v = spreadOf(std::move(v));
+  for (int b = 0; b < kBands; ++b) {
+    s.band_h[b] = spreadOf(std::move(bh[b])), s.band_v[b] = spreadOf(std::move(bv[b]));
+  }
+  s.away_h = spreadOf(std::move(ah)), s.away_v = spreadOf(std::move(av));
+  return s;
+}
+
+MapScore scoreSheet(const DriveMap& m, const GeoreferenceResult& r) {
+  return scoreMap(m, [&](const Eigen::Vector3d& p, std::size_t) { return r.sheet->transform(p); });
+}
+
+MapScore scoreOwnPose(const DriveMap& m, const TruthDrive& d, const GeoreferenceResult& r) {
+  const Trajectory& fused = r.fusion ? r.fusion->poses : r.rubbersheet;
+  return scoreMap(m, [&](const Eigen::Vector3d& p, std::size_t k) {
+    const std::size_t i = m.pose[k];
+    return Eigen::Vector3d(isometryOf(fused[i]) * (isometryOf(d.input.poses[i]).inverse() * p));
+  });
+}
+
+void printTruthMapRows(const std::vector<std::string>& dirs, int control_points,
+                       const std::vector<std::pair<std::string, std::string>>& sets) {
+  std::printf(
+      "| drive | map moved by | horizontal RMSE / p95 / MAX | vertical | 0-10 m, h | v | 10-30 m, "
+      "h | v | 30-50 m, h | v | away from revisits, h | v |\n|---|---|---|---|---|---|---|---|"
+      "---|---|---|---|\n");
+  for (const auto& dir : dirs) {
+    for (const char* kind : {"rtk", "urban"}) {
+      if (!std::filesystem::exists(dir + "/gnss_" + kind + ".txt")) continue;
+      const TruthDrive d = loadTruthDrive(dir, kind);
+      Params p;
+      p.control_points = control_points;
+      for (const auto& [k, v] : sets) paramTable().setText(p, k, v);
+      const GeoreferenceResult r = georeference(d.input, p);
+      const DriveMap m = makeDriveMap(d);
+      const std::pair<const char*, MapScore> rows[] = {
+          {"the sheet", scoreSheet(m, r)}, {"its own fused pose", scoreOwnPose(m, d, r)}};
+      for (const auto& [what, s] : rows) {
+        std::printf("| %s | %s |", d.name.c_str(), what);
+        printSpread(s.h, s.v);
+        for (int b = 0; b < kBands; ++b) printSpread(s.band_h[b], s.band_v[b]);
+        printSpread(s.away_h, s.away_v);
+        std::printf("\n");
+      }
+      std::fflush(stdout);
+    }
+  }
+}
+
+}  // namespace flexcloud::study

@@ -1,0 +1,64 @@
+#pragma once
+// Maps as a LiDAR SLAM makes them, from a real drive with a truth (truth_drives.h): a scan every
+// few poses, points at body-frame offsets like a car's LiDAR sees them (the ground below the
+// sensor, walls and poles beside the road 2-50 m out, a few metres up), placed by the SLAM's
+// poses (the map) and by the true poses at their true instants (its truth, point by point). A
+// result's map is judged against that truth: horizontally and vertically, by distance from the
+// point's pose, and away from the places where another pass comes near.
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "flexcloud/georeference.h"
+#include "truth_drives.h"
+
+namespace flexcloud::study {
+
+struct DriveMap {
+  std::vector<Eigen::Vector3d> slam;   ///< map frame, as the SLAM placed each point
+  std::vector<Eigen::Vector3d> truth;  ///< the GNSS's frame, as the true pose places it
+  std::vector<std::size_t> pose;       ///< the pose each point was seen from
+  std::vector<float> range;            ///< horizontal distance from that pose, m
+  /// Whether a pose of another pass (more than 60 s apart) lies within 30 m of the point, by
+  /// the truth or in the SLAM's map: where passes the SLAM holds apart meet.
+  std::vector<bool> revisit;
+};
+
+/// The map of a drive: a scan at every `every`-th pose, `per_scan` points each; the same points
+/// for the same seed. Points of poses without a truth are left out.
+DriveMap makeDriveMap(const TruthDrive& d, std::size_t every = 5, std::size_t per_scan = 80,
+                      std::uint64_t seed = 1);
+
+/// Distance bands from the point's pose (m): 0-10, 10-30, 30-50.
+constexpr int kBands = 3;
+
+/// A map's errors against its truth, horizontal and vertical (m): every point, by band, and
+/// away from revisits; RMSE, 95th percentile and MAX each.
+struct Spread {
+  double rmse = 0.0, p95 = 0.0, max = 0.0;
+  std::size_t points = 0;
+};
+struct MapScore {
+  Spread h, v;  ///< every point
+  Spread band_h[kBands], band_v[kBands];
+  Spread away_h, away_v;  ///< away from revisits
+};
+
+/// The score of the map moved point by point by `place` (SLAM map point, point index -> ENU).
+MapScore scoreMap(const DriveMap& m,
+                  const std::function<Eigen::Vector3d(const Eigen::Vector3d&, std::size_t)>& place);
+
+/// The rubber sheet of a result applied to the map.
+MapScore scoreSheet(const DriveMap& m, const GeoreferenceResult& r);
+/// Each point moved with its own pose's correction: the fused pose against the SLAM's (what the
+/// map's poses allow).
+MapScore scoreOwnPose(const DriveMap& m, const TruthDrive& d, const GeoreferenceResult& r);
+
+/// The table (markdown) of the sheet's and the own poses' map errors on each drive and GNSS
+/// kind in `dirs`, with the defaults and `sets` applied.
+void printTruthMapRows(const std::vector<std::string>& dirs, int control_points,
+                       const std::vector<std::pair<std::string, std::string>>& sets);
+
+}  // namespace flexcloud::study
