@@ -118,6 +118,13 @@ TruthScore scoreAgainstTruth(const TruthDrive& d, const GeoreferenceResult& r) {
   return s;
 }
 
+Params simpleWay() {
+  Params p;
+  p.fusion = false;
+  p.default_std_dev = 0.03;
+  return p;
+}
+
 Params publishedMethod(int control_points) {
   Params p;
   p.fusion = false;

@@ -61,6 +61,10 @@ struct CalibrationRow {
 /// The calibration table (markdown): a row per drive, then the RTK and the urban drives pooled.
 void printCalibrationRows(const std::vector<CalibrationRow>& rows);
 
+/// fusion: false, 3 cm for fixes without a std-dev (urban GNSS gives none): the simple way the
+/// defaults are held against.
+Params simpleWay();
+
 /// The published method on these drives: GNSS control points at the poses' stamps as given,
 /// no refinement, no fusion (0.03 m for fixes without a std-dev).
 Params publishedMethod(int control_points = Params().control_points);

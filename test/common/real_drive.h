@@ -33,4 +33,23 @@ inline std::string findTruthDrive(const std::string& name) {
   return findDrive(name, "poses_tum.txt", "gt_tum.txt");
 }
 
+/// The folders of the drives `names` of `family` (e.g. "kitti_lo") that are there; empty where
+/// none is (the caller skips, saying where it looked: SKIP_WITHOUT_DRIVES).
+inline std::vector<std::string> findTruthDrives(const std::string& family,
+                                                const std::vector<std::string>& names) {
+  std::vector<std::string> out;
+  for (const auto& n : names) {
+    const std::string dir = findTruthDrive(family + "/" + n);
+    if (!dir.empty()) out.push_back(dir);
+  }
+  return out;
+}
+
 }  // namespace flexcloud::test
+
+/// Skips the test where `dirs` (findTruthDrives()) is empty, naming the family looked for.
+#define SKIP_WITHOUT_DRIVES(dirs, family)                                          \
+  if ((dirs).empty()) {                                                            \
+    GTEST_SKIP() << family << " not found (../shared/data/" << family              \
+                 << " beside the repository, or set FLEXCLOUD_DATA_DIR); skipped"; \
+  }

@@ -23,28 +23,6 @@ namespace {
 const std::vector<std::string> kDrives = {"DCC_02",   "DCC_03",       "KAIST_02",
                                           "KAIST_03", "Riverside_02", "Riverside_03"};
 
-std::vector<std::string> drives() {
-  std::vector<std::string> out;
-  for (const auto& d : kDrives) {
-    const std::string dir = test::findTruthDrive("mulran_lo/" + d);
-    if (!dir.empty()) out.push_back(dir);
-  }
-  return out;
-}
-
-#define SKIP_WITHOUT_DRIVES(dirs)                                                              \
-  if ((dirs).empty()) {                                                                        \
-    GTEST_SKIP() << "mulran_lo not found (../shared/data/mulran_lo beside the repository, or " \
-                    "set FLEXCLOUD_DATA_DIR); skipped";                                        \
-  }
-
-Params simpleWay() {
-  Params p;
-  p.fusion = false;
-  p.default_std_dev = 0.03;
-  return p;
-}
-
 // Honest RTK GNSS (2 cm, std-devs exactly right): the defaults' horizontal RMSE and MAX at most
 // fusion: false's plus 10 % plus 1 cm on every drive (0.064-0.153 m RMSE against 0.085-0.460;
 // before, the clock taken from a fit of positions 150-190 ms off and the SLAM's failures
@@ -54,13 +32,14 @@ Params simpleWay() {
 // lag; the fit of positions, which the SLAM's heading lag in turns moves by 120-190 ms, is held
 // at it).
 TEST(MulranDrives, HonestRtkGnssIsFollowedAtLeastAsCloselyAsBySheetAlone) {
-  const std::vector<std::string> dirs = drives();
-  SKIP_WITHOUT_DRIVES(dirs);
+  const std::vector<std::string> dirs = test::findTruthDrives("mulran_lo", kDrives);
+  SKIP_WITHOUT_DRIVES(dirs, "mulran_lo");
   for (const auto& dir : dirs) {
     const study::TruthDrive d = study::loadTruthDrive(dir, "rtk");
     const GeoreferenceResult r = georeference(d.input, Params{});
     const study::TruthScore s = study::scoreAgainstTruth(d, r);
-    const study::TruthScore f = study::scoreAgainstTruth(d, georeference(d.input, simpleWay()));
+    const study::TruthScore f =
+        study::scoreAgainstTruth(d, georeference(d.input, study::simpleWay()));
     const double clock_error = r.clock_offset + d.lag;  // the truth is -lag
     std::printf(
         "%s: defaults %.3f / %.3f m (ends %.3f, elsewhere %.3f), fusion: false %.3f / %.3f m; "
@@ -111,8 +90,8 @@ TEST(MulranDrives, ASlamFailureUnderPreciseGnssIsFollowedAndNamed) {
 // figures recorded (0.615-2.563 m RMSE, 2.11-2.95 m MAX but Riverside_02's 9.98 m; before the
 // clock was bounded by the speed profile, 0.615-2.563 and 2.11-9.98 m) are held within 10 %.
 TEST(MulranDrives, UrbanGnssIsBridgedAsRecorded) {
-  const std::vector<std::string> dirs = drives();
-  SKIP_WITHOUT_DRIVES(dirs);
+  const std::vector<std::string> dirs = test::findTruthDrives("mulran_lo", kDrives);
+  SKIP_WITHOUT_DRIVES(dirs, "mulran_lo");
   const std::vector<std::pair<double, double>> recorded = {{0.987, 2.538}, {0.994, 2.561},
                                                            {1.032, 2.953}, {1.085, 2.624},
                                                            {2.563, 9.977}, {0.615, 2.114}};
@@ -134,8 +113,8 @@ TEST(MulranDrives, UrbanGnssIsBridgedAsRecorded) {
 // at least 75 % on every drive (75.6-100 %). Where the clock is held at the speed profile, its
 // sigma holds what a SLAM's own lag moves that profile by (KAIST_03: 12.6 -> 89.5 %).
 TEST(MulranDrives, PoseSigmasCoverTheErrorsWithRtkGnss) {
-  const std::vector<std::string> dirs = drives();
-  SKIP_WITHOUT_DRIVES(dirs);
+  const std::vector<std::string> dirs = test::findTruthDrives("mulran_lo", kDrives);
+  SKIP_WITHOUT_DRIVES(dirs, "mulran_lo");
   std::vector<study::CalibrationRow> rows;
   sim::SigmaCoverage pooled;
   for (const auto& dir : dirs) {

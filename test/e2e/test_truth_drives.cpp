@@ -22,31 +22,6 @@ namespace {
 
 const std::vector<std::string> kDrives = {"01", "02", "03", "04", "05", "06", "07", "09", "10"};
 
-/// The drives found, as folders; empty (and the test skipped by the caller) where none is.
-std::vector<std::string> drives() {
-  std::vector<std::string> out;
-  for (const auto& d : kDrives) {
-    const std::string dir = test::findTruthDrive("kitti_lo/" + d);
-    if (!dir.empty()) out.push_back(dir);
-  }
-  return out;
-}
-
-#define SKIP_WITHOUT_DRIVES(dirs)                                                            \
-  if ((dirs).empty()) {                                                                      \
-    GTEST_SKIP() << "kitti_lo not found (../shared/data/kitti_lo beside the repository, or " \
-                    "set FLEXCLOUD_DATA_DIR); skipped";                                      \
-  }
-
-/// Share of the poses whose error against the truth lies within k of their sigma, horizontal
-/// (per-axis sigma, the 2D error) or vertical.
-Params simpleWay() {
-  Params p;
-  p.fusion = false;
-  p.default_std_dev = 0.03;
-  return p;
-}
-
 /// visit(drive, kind) for every drive in `dirs` and GNSS kind ("rtk", "urban") it has.
 template <typename Visit>
 void forEachKind(const std::vector<std::string>& dirs, Visit&& visit) {
@@ -66,12 +41,12 @@ void forEachKind(const std::vector<std::string>& dirs, Visit&& visit) {
 // is 0.068 m off, against 0.053 m elsewhere; 04, a 27 s drive, has no middle), and no clock
 // offset applied.
 TEST(TruthDrives, HonestRtkGnssIsFollowedAtLeastAsCloselyAsBySheetAlone) {
-  const std::vector<std::string> dirs = drives();
-  SKIP_WITHOUT_DRIVES(dirs);
+  const std::vector<std::string> dirs = test::findTruthDrives("kitti_lo", kDrives);
+  SKIP_WITHOUT_DRIVES(dirs, "kitti_lo");
   for (const auto& dir : dirs) {
     const study::TruthDrive d = study::loadTruthDrive(dir, "rtk");
     const GeoreferenceResult r = georeference(d.input, Params{});
-    const GeoreferenceResult g = georeference(d.input, simpleWay());
+    const GeoreferenceResult g = georeference(d.input, study::simpleWay());
     const study::TruthScore s = study::scoreAgainstTruth(d, r);
     const study::TruthScore f = study::scoreAgainstTruth(d, g);
     const study::TruthScore pub =
@@ -111,8 +86,8 @@ TEST(TruthDrives, HonestRtkGnssIsFollowedAtLeastAsCloselyAsBySheetAlone) {
 // RTK drive, by a third together (01: 0.024 -> 0.016 m RMSE; 02, where the sheet's folds lead,
 // 0.057 -> 0.048 m; 04: 0.085 -> 0.028 m MAX), and no urban drive moves away from it.
 TEST(TruthDrives, TheSlamsJitterIsTakenOutOfTheTrajectories) {
-  const std::vector<std::string> dirs = drives();
-  SKIP_WITHOUT_DRIVES(dirs);
+  const std::vector<std::string> dirs = test::findTruthDrives("kitti_lo", kDrives);
+  SKIP_WITHOUT_DRIVES(dirs, "kitti_lo");
   Params raw;
   raw.smooth_jitter = false;
   double smoothed = 0.0, unsmoothed = 0.0;  // the RTK drives' RMSE, summed
@@ -145,8 +120,8 @@ TEST(TruthDrives, TheSlamsJitterIsTakenOutOfTheTrajectories) {
 // horizontal RMSE stays within 0.40 m and the MAX within 1.5 m, but the RMSE of drive 02, whose
 // SLAM bridges its 25 s multipath episodes with up to 1.4 m of its own drift (0.407 / 1.40 m).
 TEST(TruthDrives, UrbanGnssIsBridged) {
-  const std::vector<std::string> dirs = drives();
-  SKIP_WITHOUT_DRIVES(dirs);
+  const std::vector<std::string> dirs = test::findTruthDrives("kitti_lo", kDrives);
+  SKIP_WITHOUT_DRIVES(dirs, "kitti_lo");
   for (const auto& dir : dirs) {
     if (!std::filesystem::exists(dir + "/gnss_urban.txt")) continue;  // 04 has none
     const study::TruthDrive d = study::loadTruthDrive(dir, "urban");
@@ -170,8 +145,8 @@ TEST(TruthDrives, UrbanGnssIsBridged) {
 // horizontally take part with their horizontal part alone, and a warning says how many and
 // where. Against the truth, at least 90 % of them lie within 1 m of it horizontally.
 TEST(TruthDrives, FixesApartInHeightAloneTakePartHorizontally) {
-  const std::vector<std::string> dirs = drives();
-  SKIP_WITHOUT_DRIVES(dirs);
+  const std::vector<std::string> dirs = test::findTruthDrives("kitti_lo", kDrives);
+  SKIP_WITHOUT_DRIVES(dirs, "kitti_lo");
   std::size_t counted = 0, good = 0;
   for (const auto& dir : dirs) {
     if (!std::filesystem::exists(dir + "/gnss_urban.txt")) continue;
@@ -214,8 +189,8 @@ TEST(TruthDrives, FixesApartInHeightAloneTakePartHorizontally) {
 // decides it: the result keeps the bounds of the drives as given (held at 0, 01 was 2.4 m RMSE,
 // 02 1.1 m).
 TEST(TruthDrives, AKnownClockOffsetIsFoundOrHonestlyNot) {
-  const std::vector<std::string> dirs = drives();
-  SKIP_WITHOUT_DRIVES(dirs);
+  const std::vector<std::string> dirs = test::findTruthDrives("kitti_lo", kDrives);
+  SKIP_WITHOUT_DRIVES(dirs, "kitti_lo");
   sim::SigmaCoverage rtk;  // the RTK drives' pose sigmas with the offset estimated
   for (const auto& dir : dirs) {
     const std::string seq = std::filesystem::path(dir).filename().string();
@@ -275,8 +250,8 @@ TEST(TruthDrives, AKnownClockOffsetIsFoundOrHonestlyNot) {
 // Pooled, where the samples are many: urban within that band (91-99 %), RTK within 93-98 %
 // (94.3 / 96.7 %: vertically more cautious than the 94-96 % of a calibrated sigma).
 TEST(TruthDrives, PoseSigmasCoverTheErrorsAgainstTheTruth) {
-  const std::vector<std::string> dirs = drives();
-  SKIP_WITHOUT_DRIVES(dirs);
+  const std::vector<std::string> dirs = test::findTruthDrives("kitti_lo", kDrives);
+  SKIP_WITHOUT_DRIVES(dirs, "kitti_lo");
   std::vector<study::CalibrationRow> rows;
   sim::SigmaCoverage pooled[2];  // RTK, urban
   forEachKind(dirs, [&](const study::TruthDrive& d, const std::string& kind) {
