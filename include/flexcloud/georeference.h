@@ -170,8 +170,9 @@ double estimatedClockSigma(const GeoreferenceResult& r);
 Trajectory gnssTrajectory(const GeoreferenceResult& r);
 
 /// The rotation the sheet applies around `at` (map frame): the rigid fit of six points 5 m
-/// either side of it along the axes to their images.
-Eigen::Matrix3d sheetRotationAt(const RubberSheet& sheet, const Eigen::Vector3d& at);
+/// either side of it along the axes to their images. The points are located by a walk from the
+/// tetrahedron `hint` (the one that holds `at`, or any): no grid is built for them.
+Eigen::Matrix3d sheetRotationAt(const RubberSheet& sheet, const Eigen::Vector3d& at, int hint = 0);
 
 /// A pose through the sheet: the position warped, the orientation turned by the sheet's
 /// rotation around it (sheetRotationAt). `hint` carries the tetrahedron of the previous pose

@@ -187,18 +187,20 @@ Trajectory transformed(const Trajectory& poses, const Eigen::Isometry3d& t) {
 
 }  // namespace
 
-Eigen::Matrix3d sheetRotationAt(const RubberSheet& sheet, const Eigen::Vector3d& at) {
+Eigen::Matrix3d sheetRotationAt(const RubberSheet& sheet, const Eigen::Vector3d& at, int hint) {
   // Six points kProbe either side along the map's axes, warped, and the rotation that carries
   // them best (Umeyama): the rotation of the correction over the tetrahedra around the pose.
   // The pose's own tetrahedron alone is often a sliver between control points in a line, whose
-  // linear part turned KITTI 05's poses by up to 160 degrees (p95 32).
+  // linear part turned KITTI 05's poses by up to 160 degrees (p95 32). The walk from the pose's
+  // tetrahedron leaves the sheet's grid unbuilt: a trajectory's warp on the solver's thread
+  // built it with every core, whatever `threads` asked for.
   constexpr double kProbe = 5.0;  // m
   std::vector<Eigen::Vector3d> src, dst;
   for (int axis = 0; axis < 3; ++axis) {
     for (const double sign : {-1.0, 1.0}) {
       const Eigen::Vector3d q = at + sign * kProbe * Eigen::Vector3d::Unit(axis);
       src.push_back(q);
-      dst.push_back(sheet.transform(q));
+      dst.push_back(RubberSheet::apply(sheet.affineAt(sheet.locateFrom(q, hint)), q));
     }
   }
   return umeyama(src, dst, std::vector<double>(src.size(), 1.0), false).rigid().linear();
@@ -210,9 +212,9 @@ Pose warpPose(const RubberSheet& sheet, const Pose& p, int& hint) {
   const Affine34& a = sheet.affineAt(loc);
   Pose out = p;
   out.position = RubberSheet::apply(a, p.position);
-  out.orientation =
-      Eigen::Quaterniond(sheetRotationAt(sheet, p.position) * p.orientation.toRotationMatrix())
-          .normalized();
+  out.orientation = Eigen::Quaterniond(sheetRotationAt(sheet, p.position, hint) *
+                                       p.orientation.toRotationMatrix())
+                        .normalized();
   return out;
 }
 
