@@ -11,6 +11,7 @@
 #include "flexcloud/input/trajectory.h"
 #include "flexcloud/param_table.h"
 #include "flexcloud/params.h"
+#include "flexcloud/uncertainty/point_sigma.h"
 
 namespace flexcloud::study {
 namespace {
@@ -101,6 +102,14 @@ void printSpread(const Spread& h, const Spread& v) {
               v.max);
 }
 
+/// A row of printTruthMapRows() up to its sigma columns.
+void printScoreRow(const std::string& drive, const char* what, const MapScore& s) {
+  std::printf("| %s | %s |", drive.c_str(), what);
+  printSpread(s.h, s.v);
+  for (int b = 0; b < kBands; ++b) printSpread(s.band_h[b], s.band_v[b]);
+  printSpread(s.away_h, s.away_v);
+}
+
 }  // namespace
 
 DriveMap makeDriveMap(const TruthDrive& d, std::size_t every, std::size_t per_scan,
@@ -162,6 +171,32 @@ MapScore scoreSheet(const DriveMap& m, const GeoreferenceResult& r) {
   return scoreMap(m, [&](const Eigen::Vector3d& p, std::size_t) { return r.sheet->transform(p); });
 }
 
+SigmaCover sheetSigmaCover(const DriveMap& m, const GeoreferenceResult& r, const Params& p) {
+  const PointSigmaField field(r.rubbersheet, r.sigma, *r.sheet, pointSigmaModel(p));
+  std::size_t in_h[kBands] = {0, 0, 0}, of[kBands] = {0, 0, 0}, in_v = 0;
+  for (std::size_t k = 0; k < m.slam.size(); ++k) {
+    const Eigen::Vector3d q = m.slam[k].cast<float>().cast<double>();
+    const RubberSheet::Location loc = r.sheet->locate(q);
+    const Eigen::Vector3d enu = RubberSheet::apply(r.sheet->affineAt(loc), q);
+    const PointSigma s = field.at(enu, loc.outside ? -1 : loc.tet);
+    const Eigen::Vector3d e = enu - m.truth[k];
+    in_v += std::abs(e.z()) <= 1.96 * s.v;
+    for (int b = 0; b < kBands; ++b) {
+      if (m.range[k] < kBandEdges[b] || m.range[k] >= kBandEdges[b + 1]) continue;
+      ++of[b];
+      in_h[b] += e.head<2>().norm() <= 2.45 * s.h;
+    }
+  }
+  SigmaCover c;
+  for (int b = 0; b < kBands; ++b) {
+    c.band_h[b] =
+        of[b] == 0 ? 0.0 : 100.0 * static_cast<double>(in_h[b]) / static_cast<double>(of[b]);
+  }
+  c.v =
+      m.slam.empty() ? 0.0 : 100.0 * static_cast<double>(in_v) / static_cast<double>(m.slam.size());
+  return c;
+}
+
 MapScore scoreOwnPose(const DriveMap& m, const TruthDrive& d, const GeoreferenceResult& r) {
   const Trajectory& fused = r.fusion ? r.fusion->poses : r.rubbersheet;
   return scoreMap(m, [&](const Eigen::Vector3d& p, std::size_t k) {
@@ -174,8 +209,8 @@ void printTruthMapRows(const std::vector<std::string>& dirs, int control_points,
                        const std::vector<std::pair<std::string, std::string>>& sets) {
   std::printf(
       "| drive | map moved by | horizontal RMSE / p95 / MAX | vertical | 0-10 m, h | v | 10-30 m, "
-      "h | v | 30-50 m, h | v | away from revisits, h | v |\n|---|---|---|---|---|---|---|---|"
-      "---|---|---|---|\n");
+      "h | v | 30-50 m, h | v | away from revisits, h | v | within 2.45 sigma_h, %% by band | "
+      "within 1.96 sigma_v, %% |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const auto& dir : dirs) {
     for (const char* kind : {"rtk", "urban"}) {
       if (!std::filesystem::exists(dir + "/gnss_" + kind + ".txt")) continue;
@@ -185,15 +220,11 @@ void printTruthMapRows(const std::vector<std::string>& dirs, int control_points,
       for (const auto& [k, v] : sets) paramTable().setText(p, k, v);
       const GeoreferenceResult r = georeference(d.input, p);
       const DriveMap m = makeDriveMap(d);
-      const std::pair<const char*, MapScore> rows[] = {
-          {"the sheet", scoreSheet(m, r)}, {"its own fused pose", scoreOwnPose(m, d, r)}};
-      for (const auto& [what, s] : rows) {
-        std::printf("| %s | %s |", d.name.c_str(), what);
-        printSpread(s.h, s.v);
-        for (int b = 0; b < kBands; ++b) printSpread(s.band_h[b], s.band_v[b]);
-        printSpread(s.away_h, s.away_v);
-        std::printf("\n");
-      }
+      printScoreRow(d.name, "the sheet", scoreSheet(m, r));
+      const SigmaCover c = sheetSigmaCover(m, r, p);
+      std::printf(" %.1f / %.1f / %.1f | %.1f |\n", c.band_h[0], c.band_h[1], c.band_h[2], c.v);
+      printScoreRow(d.name, "its own fused pose", scoreOwnPose(m, d, r));
+      std::printf(" - | - |\n");
       std::fflush(stdout);
     }
   }

@@ -46,12 +46,21 @@ struct MapScore {
   Spread away_h, away_v;  ///< away from revisits
 };
 
+/// How honest a map's point sigmas are: the share of its points within 2.45 sigma_h of the
+/// truth horizontally (the 95 % circle), by band, and within 1.96 sigma_v vertically.
+struct SigmaCover {
+  double band_h[kBands] = {0.0, 0.0, 0.0};
+  double v = 0.0;
+};
+
 /// The score of the map moved point by point by `place` (SLAM map point, point index -> ENU).
 MapScore scoreMap(const DriveMap& m,
                   const std::function<Eigen::Vector3d(const Eigen::Vector3d&, std::size_t)>& place);
 
 /// The rubber sheet of a result applied to the map.
 MapScore scoreSheet(const DriveMap& m, const GeoreferenceResult& r);
+/// The point sigmas of the sheet's map (point_sigma.h, the model of `p`) against its errors.
+SigmaCover sheetSigmaCover(const DriveMap& m, const GeoreferenceResult& r, const Params& p);
 /// Each point moved with its own pose's correction: the fused pose against the SLAM's (what the
 /// map's poses allow).
 MapScore scoreOwnPose(const DriveMap& m, const TruthDrive& d, const GeoreferenceResult& r);
