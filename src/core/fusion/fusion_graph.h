@@ -39,6 +39,7 @@ constexpr double kStiffSlam = 1.5;
 constexpr int kNoiseRounds = 2;
 constexpr double kMostNoiseStep = 2.0;
 constexpr double kMinOffsetSigma = 0.005;    // s, tightest the speed profiles hold the offset
+constexpr double kTiltSigma = 2.0 * kDeg;    // the keyframes' mean tilt about the start's
 constexpr double kRestampTolerance = 0.001;  // s: a remainder beyond restamps the fixes
 constexpr double kOffsetProbe = 0.01;        // s: the offset's moves for its fitted sigma
 constexpr int kRestampRounds = 2;
@@ -151,6 +152,21 @@ struct ZeroPrior {
   }
 };
 
+/// A keyframe's tilt stays near the start's: `up` is the body's direction the start put up; its
+/// horizontal part after the keyframe's rotation, over sigma (rad).
+struct TiltPrior {
+  Eigen::Vector3d up;
+  double sigma;
+  template <typename T>
+  bool operator()(const T* q, T* r) const {
+    const Eigen::Quaternion<T> rot(q[3], q[0], q[1], q[2]);
+    const Eigen::Matrix<T, 3, 1> u = rot.normalized() * up.cast<T>();
+    r[0] = u.x() / T(sigma);
+    r[1] = u.y() / T(sigma);
+    return true;
+  }
+};
+
 /// The clock offset stays near what the speed profiles showed.
 struct OffsetPrior {
   double mean, sigma;
@@ -259,6 +275,7 @@ class Fusion {
   std::unique_ptr<ceres::Problem> makeProblem(std::size_t stride);
 
   void addOdometry(ceres::Problem& problem);
+  void addTiltPrior(ceres::Problem& problem);
 
   /// Variance-component check of the SLAM's noise: the GNSS's inliers should stay from the
   /// fused trajectory within their own noise (the reported std-dev, or for fixes without one
