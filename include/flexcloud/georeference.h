@@ -179,7 +179,4 @@ Eigen::Matrix3d sheetRotationAt(const RubberSheet& sheet, const Eigen::Vector3d&
 /// (0 to start).
 Pose warpPose(const RubberSheet& sheet, const Pose& p, int& hint);
 
-/// The rotation nearest to a linear map (polar decomposition).
-Eigen::Matrix3d nearestRotation(const Eigen::Matrix3d& m);
-
 }  // namespace flexcloud

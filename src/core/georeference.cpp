@@ -1,6 +1,5 @@
 #include "flexcloud/georeference.h"
 
-#include <Eigen/SVD>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -206,12 +205,21 @@ Eigen::Matrix3d sheetRotationAt(const RubberSheet& sheet, const Eigen::Vector3d&
   return umeyama(src, dst, std::vector<double>(src.size(), 1.0), false).rigid().linear();
 }
 
-Pose warpPose(const RubberSheet& sheet, const Pose& p, int& hint) {
-  const auto loc = sheet.locateFrom(p.position, hint);
+namespace {
+
+/// A position through the sheet, located by a walk from `hint`, which then holds its
+/// tetrahedron (unchanged beyond the hull).
+Eigen::Vector3d warpPosition(const RubberSheet& sheet, const Eigen::Vector3d& at, int& hint) {
+  const auto loc = sheet.locateFrom(at, hint);
   if (!loc.outside) hint = loc.tet;
-  const Affine34& a = sheet.affineAt(loc);
+  return RubberSheet::apply(sheet.affineAt(loc), at);
+}
+
+}  // namespace
+
+Pose warpPose(const RubberSheet& sheet, const Pose& p, int& hint) {
   Pose out = p;
-  out.position = RubberSheet::apply(a, p.position);
+  out.position = warpPosition(sheet, p.position, hint);
   out.orientation = Eigen::Quaterniond(sheetRotationAt(sheet, p.position, hint) *
                                        p.orientation.toRotationMatrix())
                         .normalized();
@@ -223,11 +231,25 @@ namespace {
 // The fewest poses a drive can be georeferenced from: the sheet's 4 control points, one per pose.
 constexpr std::size_t kLeastPoses = 4;
 
-Trajectory warpTrajectory(const RubberSheet& sheet, const Trajectory& poses) {
+/// The poses through the sheet. Their orientations are `oriented`'s where given (the fused
+/// trajectory, which the sheet was fitted to: the sheet's rotation around a pose is that of
+/// tetrahedra between control points in a line, KITTI 05 RTK 6.6 degrees off the truth at p95
+/// by sheetRotationAt, 0.62 fused), else turned by the sheet's rotation around each pose.
+Trajectory warpTrajectory(const RubberSheet& sheet, const Trajectory& poses,
+                          const Trajectory* oriented) {
   Trajectory out;
   out.reserve(poses.size());
   int hint = 0;
-  for (const auto& p : poses) out.push_back(warpPose(sheet, p, hint));
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    if (oriented == nullptr) {
+      out.push_back(warpPose(sheet, poses[i], hint));
+      continue;
+    }
+    Pose p = poses[i];
+    p.position = warpPosition(sheet, p.position, hint);
+    p.orientation = (*oriented)[i].orientation;
+    out.push_back(p);
+  }
   return out;
 }
 
@@ -814,13 +836,6 @@ Trajectory gnssTrajectory(const GeoreferenceResult& r) {
   return t;
 }
 
-Eigen::Matrix3d nearestRotation(const Eigen::Matrix3d& m) {
-  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(m, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d u = svd.matrixU();
-  if ((u * svd.matrixV().transpose()).determinant() < 0.0) u.col(2) *= -1.0;
-  return u * svd.matrixV().transpose();
-}
-
 namespace {
 
 /// Control points and sheet of the published method: the GNSS at the poses is the target.
@@ -1060,15 +1075,8 @@ GeoreferenceResult georeference(const DriveInput& input, const Params& given,
   }
   cancel.check("georeferencing");
 
-  r.rubbersheet = warpTrajectory(*r.sheet, r.poses);
-  // With the fusion, the orientations are the fused trajectory's, which the sheet was fitted to:
-  // the sheet's rotation around a pose is that of the tetrahedra between control points in a
-  // line (KITTI 05 RTK: 6.6 degrees off the truth at p95 by sheetRotationAt, 0.62 fused).
-  if (r.fusion && r.method == Method::kFusion) {
-    for (std::size_t i = 0; i < r.rubbersheet.size(); ++i) {
-      r.rubbersheet[i].orientation = r.fusion->poses[i].orientation;
-    }
-  }
+  const bool fused = r.fusion && r.method == Method::kFusion;
+  r.rubbersheet = warpTrajectory(*r.sheet, r.poses, fused ? &r.fusion->poses : nullptr);
   smoothTrajectories(params, r);
   const Eigen::Vector3d lever(params.lever_arm_x, params.lever_arm_y, params.lever_arm_z);
   r.metrics_aligned = deviationFromGnss(r.aligned, r.gnss_at_pose, lever);
