@@ -166,6 +166,10 @@ std::vector<SigmaFix> sigmaFixes(const GeoreferenceResult& r, const Params& para
 /// told it (speed or heading), s; 0 where none was applied.
 double estimatedClockSigma(const GeoreferenceResult& r);
 
+/// The poses a map's points are rebuilt with (pose_rebuild.h), one per pose of `poses`: the
+/// fused trajectory, or without the fusion the rubber-sheeted one.
+const Trajectory& resultPoses(const GeoreferenceResult& r);
+
 /// The interpolated GNSS at every matched pose, stamped like the pose (identity orientation).
 Trajectory gnssTrajectory(const GeoreferenceResult& r);
 

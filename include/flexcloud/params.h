@@ -78,6 +78,7 @@ struct Params {
   double tile_size;
   std::string projector;
   bool las;
+  std::string map_pose_field;
   bool point_sigma;
   double point_scatter;        // m
   double point_heading_sigma;  // mrad

@@ -823,6 +823,10 @@ std::vector<std::string> stampedWarnings(const GeoreferenceResult& r, const Para
 
 std::string toString(Method m) { return m == Method::kFusion ? "fusion" : "gnss"; }
 
+const Trajectory& resultPoses(const GeoreferenceResult& r) {
+  return r.fusion ? r.fusion->poses : r.rubbersheet;
+}
+
 Trajectory gnssTrajectory(const GeoreferenceResult& r) {
   Trajectory t;
   t.reserve(r.poses_matched);

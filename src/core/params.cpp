@@ -154,6 +154,12 @@ ParamTable<P> makeTable() {
                    "moves), local_cartesian_utm, mgrs"),
       boolRow<P>("las", &P::las, false,
                  "Also write map_georeferenced.las: LAS 1.4 in the datum's UTM zone for GIS tools"),
+      textRow<P>("map_pose_field", &P::map_pose_field, "auto",
+                 "The map's per-point field that names each point's pose: its points are then "
+                 "moved with their own pose's correction, not by the rubber sheet (auto: a "
+                 "float64 time, timestamp, gps_time or t on the odometry's clock, or an integer "
+                 "scan_index, scan_id, scan or keyframe, the pose's index; none: always the "
+                 "sheet)"),
       boolRow<P>("point_sigma", &P::point_sigma, false,
                  "Give every map point the fields sigma_h and sigma_v (float32, m): how far it "
                  "may lie from its true place (a map of 8 more bytes a point)"),

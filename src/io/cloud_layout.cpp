@@ -67,6 +67,93 @@ std::vector<pcl::PCLPointField> withSigmaFields(std::vector<pcl::PCLPointField> 
   return fields;
 }
 
+namespace {
+
+std::optional<PointPoseField::Type> poseFieldType(std::uint8_t datatype) {
+  using T = PointPoseField::Type;
+  switch (datatype) {
+    case pcl::PCLPointField::FLOAT64:
+      return T::kFloat64;
+    case pcl::PCLPointField::INT8:
+      return T::kInt8;
+    case pcl::PCLPointField::UINT8:
+      return T::kUint8;
+    case pcl::PCLPointField::INT16:
+      return T::kInt16;
+    case pcl::PCLPointField::UINT16:
+      return T::kUint16;
+    case pcl::PCLPointField::INT32:
+      return T::kInt32;
+    case pcl::PCLPointField::UINT32:
+      return T::kUint32;
+    default:
+      return std::nullopt;
+  }
+}
+
+PointPoseField poseField(const pcl::PCLPointField& f, PointPoseField::Type type) {
+  PointPoseField p;
+  p.name = f.name;
+  p.type = type;
+  p.kind = type == PointPoseField::Type::kFloat64 ? PointPoseField::Kind::kTime
+                                                  : PointPoseField::Kind::kIndex;
+  p.offset = f.offset;
+  return p;
+}
+
+}  // namespace
+
+std::optional<PointPoseField> pointPoseField(const std::vector<pcl::PCLPointField>& fields,
+                                             const std::string& wanted, const std::string& name) {
+  if (wanted == "none") return std::nullopt;
+  if (wanted == "auto") {
+    for (const char* n : {"time", "timestamp", "gps_time", "t"}) {
+      for (const auto& f : fields) {
+        if (f.name == n && f.count == 1 && f.datatype == pcl::PCLPointField::FLOAT64)
+          return poseField(f, PointPoseField::Type::kFloat64);
+      }
+    }
+    for (const char* n : {"scan_index", "scan_id", "scan", "keyframe"}) {
+      for (const auto& f : fields) {
+        const auto type = poseFieldType(f.datatype);
+        if (f.name == n && f.count == 1 && type && *type != PointPoseField::Type::kFloat64)
+          return poseField(f, *type);
+      }
+    }
+    return std::nullopt;
+  }
+  for (const auto& f : fields) {
+    if (f.name != wanted) continue;
+    const auto type = poseFieldType(f.datatype);
+    if (!type || f.count != 1) {
+      throw Error(name + ": map_pose_field '" + wanted +
+                  "' is neither float64 (a time) nor an integer (a pose's index): type " +
+                  std::to_string(f.datatype) + ", count " + std::to_string(f.count));
+    }
+    return poseField(f, *type);
+  }
+  throw Error(name + ": map_pose_field '" + wanted +
+              "': no such field (auto: find one; none: move the map by the rubber sheet)");
+}
+
+MapMotion mapMotion(const std::vector<pcl::PCLPointField>& fields, const std::string& wanted,
+                    const PoseCorrections& corrections,
+                    const std::function<std::vector<double>(const PointPoseField&)>& sample,
+                    const std::string& name) {
+  MapMotion m;
+  const std::optional<PointPoseField> field = pointPoseField(fields, wanted, name);
+  if (!field) return m;
+  const std::string why = corrections.mismatch(*field, sample(*field));
+  if (why.empty()) {
+    m.rebuild = PoseRebuild{*field, &corrections};
+  } else if (wanted == "auto") {
+    m.note = name + ": " + why + "; the map is moved by the rubber sheet";
+  } else {
+    throw Error(name + ": map_pose_field: " + why);
+  }
+  return m;
+}
+
 WarpStats warpCloud(pcl::PCLPointCloud2& cloud, const RubberSheet& sheet, int threads,
                     const std::string& name, const CancelToken& cancel) {
   return warpPoints(cloud.data.data(), xyzLayout(cloud, name), sheet, threads, name, cancel);

@@ -124,6 +124,13 @@ class MapJob {
     const PcdHeader& h = reader_.header();
     layout_ = xyzLayout(fields_, h.point_step, h.points, h.points * h.point_step, in);
     if (!options.truth.empty()) truth_.emplace(options.truth, h.points);
+    if (options.corrections != nullptr) {
+      motion_ = mapMotion(
+          fields_, options.pose_field, *options.corrections,
+          [this](const PointPoseField& f) { return fieldSample(f); }, in);
+      info_.pose_field = motion_.rebuild ? motion_.rebuild->field.name : "";
+      info_.pose_field_note = motion_.note;
+    }
   }
 
   const PcdHeader& header() const { return reader_.header(); }
@@ -131,8 +138,10 @@ class MapJob {
   MapPoints& reader() { return reader_; }
   const std::string& name() const { return in_; }
 
-  /// Builds the location grid from sample blocks spread over the whole file.
+  /// Builds the location grid from sample blocks spread over the whole file (a map rebuilt
+  /// from its points' poses needs none).
   void prepare() {
+    if (motion_.rebuild) return;
     const std::size_t step = header().point_step;
     const auto t0 = Clock::now();
     std::vector<Eigen::Vector3d> sample;
@@ -169,7 +178,10 @@ class MapJob {
     SigmaSink sink;
     if (options_.point_sigma) sink = {options_.point_sigma, data + header().point_step, rowStep()};
     const WarpStats s =
-        warpPoints(data, part, sheet_, options_.threads, in_, *options_.cancel, sink);
+        motion_.rebuild
+            ? rebuildPoints(data, part, *motion_.rebuild, options_.threads, in_, *options_.cancel,
+                            sink)
+            : warpPoints(data, part, sheet_, options_.threads, in_, *options_.cancel, sink);
     info_.warp_seconds += since(t0);
     info_.warp.points += s.points;
     info_.warp.outside += s.outside;
@@ -198,8 +210,19 @@ class MapJob {
         [&f](const Eigen::Vector3d& p) { return Eigen::Vector3d(f * p); }, acc);
   }
 
+  /// The values of field f of points spread over the file.
+  std::vector<double> fieldSample(const PointPoseField& f) const {
+    std::vector<double> values;
+    const std::size_t step = header().point_step;
+    reader_.sample(kSampleBlocks, kSampleBlock, [&](const std::uint8_t* points, std::size_t n) {
+      for (std::size_t i = 0; i < n; ++i) values.push_back(f.read(points + i * step));
+    });
+    return values;
+  }
+
   std::string in_;
   MapPoints reader_;
+  MapMotion motion_;
   std::vector<pcl::PCLPointField> fields_;
   XyzLayout layout_;
   const RubberSheet& sheet_;

@@ -268,6 +268,27 @@ void writeMapExports(Staging& stage, const GeoreferenceResult& r, const Params& 
 
 }  // namespace
 
+std::vector<std::string> mapWarnings(const GeoreferenceResult& r, const Params& params,
+                                     const MapInfo* map, const std::string& map_frame) {
+  if (map == nullptr) return resultWarnings(r, params, nullptr, map_frame);
+  if (map->pose_field.empty()) {
+    std::vector<std::string> out = resultWarnings(r, params, &map->warp, map_frame);
+    if (!map->pose_field_note.empty()) out.push_back(map->pose_field_note);
+    return out;
+  }
+  WarpStats named = map->warp;  // its points outside named no pose: counted here, not there
+  named.outside = 0;
+  std::vector<std::string> out = resultWarnings(r, params, &named, map_frame);
+  const std::size_t finite = map->warp.points - map->warp.non_finite;
+  const double share = finite == 0 ? 0.0 : static_cast<double>(map->warp.outside) / finite;
+  if (share > params.max_uncovered_share) {
+    out.push_back(std::to_string(std::lround(100.0 * share)) + " % of the map points name no " +
+                  "pose in their field '" + map->pose_field + "' (none, or beyond the " +
+                  "trajectory's ends by more than 1 s): they got the rigid transform only");
+  }
+  return out;
+}
+
 std::string reportJson(const GeoreferenceResult& r, const Params& params, const RunContext& run,
                        const ExportSummary* exports) {
   const MapInfo* map = run.map;
@@ -336,7 +357,11 @@ std::string reportJson(const GeoreferenceResult& r, const Params& params, const 
     j["fusion"] = fusionJson(*r.fusion);
   }
   j["beside_points"] = {{"used", r.beside.size()}, {"left_out_folding", r.beside_folding}};
-  j["warnings"] = resultWarnings(r, params, map ? &map->warp : nullptr, run.frames.map);
+  if (map != nullptr) {
+    j["map_moved_by"] = map->pose_field.empty() ? "rubber_sheet" : "own_pose";
+    j["map_pose_field"] = map->pose_field;
+  }
+  j["warnings"] = mapWarnings(r, params, map, run.frames.map);
   const std::vector<std::string> degraded =
       degradedReasons(r, map ? &map->warp : nullptr, run.frames.map);
   j["degraded"] = !degraded.empty();  // kept only where accept_degraded is true

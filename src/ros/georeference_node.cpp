@@ -8,6 +8,7 @@
 #include <optional>
 
 #include "flexcloud/io/cloud_layout.h"
+#include "flexcloud/io/outputs.h"
 #include "flexcloud/io/pcd_io.h"
 #include "flexcloud/io/report_plot.h"
 #include "flexcloud/ros/bag_input.h"
@@ -443,8 +444,8 @@ std::shared_ptr<const NodeResult> GeoreferenceNode::run(const Job& job, const Ca
   s->map = warpMap(params, s->result, cancel, s->map_info);
   checkDegraded(s->result, params.core, s->map ? &s->map_info.warp : nullptr, s->frames.map);
   s->warnings = job.notes;
-  const WarpStats* warp = s->map ? &s->map_info.warp : nullptr;
-  for (auto& w : resultWarnings(s->result, params.core, warp, s->frames.map)) {
+  const MapInfo* map = s->map ? &s->map_info : nullptr;
+  for (auto& w : mapWarnings(s->result, params.core, map, s->frames.map)) {
     s->warnings.push_back(std::move(w));
   }
   s->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -511,8 +512,20 @@ sensor_msgs::PointCloud2ConstPtr GeoreferenceNode::warpMap(const NodeParams& par
   } else {
     warped.reset(new sensor_msgs::PointCloud2(*map));
   }
-  info.warp =
-      warpPoints(warped->data.data(), layout, *r.sheet, params.core.threads, name, cancel, sink);
+  const PoseCorrections corrections(r.poses, resultPoses(r), r.T_enu_map);
+  const std::size_t points = static_cast<std::size_t>(map->width) * map->height;
+  const MapMotion motion = mapMotion(
+      ros_conv::pclFields(*map), params.core.map_pose_field, corrections,
+      [&](const PointPoseField& f) {
+        return fieldValues(map->data.data(), map->point_step, points, f);
+      },
+      name);
+  info.pose_field = motion.rebuild ? motion.rebuild->field.name : "";
+  info.pose_field_note = motion.note;
+  info.warp = motion.rebuild ? rebuildPoints(warped->data.data(), layout, *motion.rebuild,
+                                             params.core.threads, name, cancel, sink)
+                             : warpPoints(warped->data.data(), layout, *r.sheet,
+                                          params.core.threads, name, cancel, sink);
   info.warp_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   warped->header.frame_id = params.enu_frame;
   warped->header.stamp = ros::Time::now();

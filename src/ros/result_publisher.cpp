@@ -53,6 +53,7 @@ flexcloud::Result toResultMsg(const NodeResult* r, bool success, const std::stri
   m.control_points = static_cast<std::uint32_t>(g.control_points.points.size());
   m.map_points = r->map_info.warp.points;
   m.points_outside = r->map_info.warp.outside;
+  m.map_pose_field = r->map_info.pose_field;
   m.aligned = ros_conv::toDeviationMsg(g.metrics_aligned);
   m.rubbersheet = ros_conv::toDeviationMsg(g.metrics_rubbersheet);
   m.T_enu_map = ros_conv::toTransformMsg(g.T_enu_map);
@@ -102,6 +103,7 @@ flexcloud::Georeference::Response toResponse(const flexcloud::Result& msg) {
   res.control_points = msg.control_points;
   res.map_points = msg.map_points;
   res.points_outside = msg.points_outside;
+  res.map_pose_field = msg.map_pose_field;
   res.aligned = msg.aligned;
   res.rubbersheet = msg.rubbersheet;
   res.T_enu_map = msg.T_enu_map;

@@ -52,6 +52,7 @@ void makeMap(const Route& route, const std::vector<double>& arc,
   map.ring.reserve(n);
   map.label.reserve(n);
   map.lateral.reserve(n);
+  map.time.reserve(n);
   std::vector<std::size_t> scan(n);  // the pose that saw each point
   std::vector<double> azimuth(n);    // and its direction from that pose
   for (std::size_t i = 0; i < n; ++i) {
@@ -94,6 +95,7 @@ void makeMap(const Route& route, const std::vector<double>& arc,
     map.ring.push_back(static_cast<std::uint16_t>(rng() % 32));
     map.label.push_back(label);
     map.lateral.push_back(static_cast<float>(std::abs(local.y())));
+    map.time.push_back(p.start_stamp + static_cast<double>(k) / p.odom_rate);
   }
   // A SLAM map is stored scan by scan, each scan as the LiDAR swept it: order the points by the
   // pose that saw them, then by azimuth.
@@ -112,6 +114,7 @@ void makeMap(const Route& route, const std::vector<double>& arc,
   permute(map.ring);
   permute(map.label);
   permute(map.lateral);
+  permute(map.time);
 }
 
 }  // namespace

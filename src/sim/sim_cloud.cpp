@@ -12,7 +12,7 @@ void put(std::uint8_t* dst, T v) {
   std::memcpy(dst, &v, sizeof(T));
 }
 
-pcl::PCLPointCloud2 build(const SimMap& map, bool truth) {
+pcl::PCLPointCloud2 build(const SimMap& map, bool truth, bool time) {
   using F = pcl::PCLPointField;
   const std::uint32_t xyz = truth ? 8 : 4;
   const std::uint32_t base = 3 * xyz;
@@ -24,6 +24,10 @@ pcl::PCLPointCloud2 build(const SimMap& map, bool truth) {
               pointField("ring", base + 4, F::UINT16),
               pointField("label", base + 8, F::UINT32)};
   c.point_step = base + 12;
+  if (time) {
+    c.fields.push_back(pointField("time", c.point_step, F::FLOAT64));
+    c.point_step += 8;
+  }
   c.height = 1;
   c.width = static_cast<std::uint32_t>(map.slam.size());
   c.row_step = c.point_step * c.width;
@@ -42,13 +46,14 @@ pcl::PCLPointCloud2 build(const SimMap& map, bool truth) {
     put<float>(p + base, map.intensity[i]);
     put<std::uint16_t>(p + base + 4, map.ring[i]);
     put<std::uint32_t>(p + base + 8, map.label[i]);
+    if (time) put<double>(p + base + 12, map.time[i]);
   }
   return c;
 }
 
 }  // namespace
 
-pcl::PCLPointCloud2 slamCloud(const SimMap& map) { return build(map, false); }
-pcl::PCLPointCloud2 truthCloud(const SimMap& map) { return build(map, true); }
+pcl::PCLPointCloud2 slamCloud(const SimMap& map, bool time) { return build(map, false, time); }
+pcl::PCLPointCloud2 truthCloud(const SimMap& map) { return build(map, true, false); }
 
 }  // namespace flexcloud::sim

@@ -355,21 +355,28 @@ void printSummary(const GeoreferenceResult& r, const Params& params, const MapIn
                 "%.3f STD %.3f MAX %.3f m\n",
                 a.mae, a.std, a.max, b.mae, b.std, b.max);
   std::cout << line;
-  if (map != nullptr) {
+  if (map != nullptr && !map->pose_field.empty()) {
+    std::snprintf(line, sizeof(line),
+                  "  map            %zu points rebuilt, each with its own pose (field '%s'; %zu "
+                  "naming none, %zu NaN kept)\n",
+                  map->warp.points, map->pose_field.c_str(), map->warp.outside,
+                  map->warp.non_finite);
+    std::cout << line;
+  } else if (map != nullptr) {
     std::snprintf(line, sizeof(line),
                   "  map            %zu points warped (%zu outside the cuboid, %zu NaN kept)\n",
                   map->warp.points, map->warp.outside, map->warp.non_finite);
     std::cout << line;
-    if (map->has_truth) {
-      std::snprintf(line, sizeof(line),
-                    "  map vs truth   rigid only: RMSE %.3f MAX %.3f m | rubber sheet: RMSE %.3f "
-                    "MAX %.3f m\n",
-                    map->truth_aligned.rmse, map->truth_aligned.max, map->truth_rubbersheet.rmse,
-                    map->truth_rubbersheet.max);
-      std::cout << line;
-    }
   }
-  for (const auto& w : resultWarnings(r, params, map ? &map->warp : nullptr, map_frame)) {
+  if (map != nullptr && map->has_truth) {
+    std::snprintf(line, sizeof(line),
+                  "  map vs truth   rigid only: RMSE %.3f MAX %.3f m | %s: RMSE %.3f MAX %.3f m\n",
+                  map->truth_aligned.rmse, map->truth_aligned.max,
+                  map->pose_field.empty() ? "rubber sheet" : "rebuilt", map->truth_rubbersheet.rmse,
+                  map->truth_rubbersheet.max);
+    std::cout << line;
+  }
+  for (const auto& w : mapWarnings(r, params, map, map_frame)) {
     std::cout << "  warning        " << w << "\n";
   }
   std::cout << "  outputs in     " << out << "\n";
@@ -431,6 +438,9 @@ MapWriter streamedMap(const Options& o, const Params& params, const Georeference
     so.T_enu_map = r.T_enu_map;
     so.cancel = &g_interrupt;
     so.precopy = precopy;
+    const PoseCorrections corrections(r.poses, resultPoses(r), r.T_enu_map);
+    so.corrections = &corrections;
+    so.pose_field = params.map_pose_field;
     std::optional<PointSigmaField> sigmas;
     if (params.point_sigma)
       so.point_sigma = &sigmas.emplace(r.rubbersheet, r.sigma, *r.sheet, pointSigmaModel(params));

@@ -53,6 +53,8 @@ constexpr const char* kUsage = R"(usage: simulate_drive [options]
   --fix-topic T           topic of the fixes in the bag (default /fix)
   --odom-topic T          topic of the poses in the bag (default /odom)
   --map-topic             also put the SLAM map into the bag on /map (PointCloud2)
+  --map-time              give every map point a float64 field time: the odometry stamp of
+                          the scan that saw it (georeference then rebuilds the map from it)
   -h, --help
 )";
 
@@ -63,6 +65,7 @@ struct Options {
   std::string fix_topic = "/fix";
   std::string odom_topic = "/odom";
   bool map_topic = false;
+  bool map_time = false;
 };
 
 Options parse(int argc, char** argv) {
@@ -126,6 +129,8 @@ Options parse(int argc, char** argv) {
       o.odom_topic = a.text(f);
     } else if (f == "--map-topic") {
       o.map_topic = true;
+    } else if (f == "--map-time") {
+      o.map_time = true;
     } else {
       return false;
     }
@@ -200,7 +205,7 @@ int run(int argc, char** argv) {
   const Options o = parse(argc, argv);
   const sim::SimDrive d = sim::simulateDrive(o.sim);
   makeDirectories(o.out);
-  const pcl::PCLPointCloud2 map = sim::slamCloud(d.map);
+  const pcl::PCLPointCloud2 map = sim::slamCloud(d.map, o.map_time);
   writeBag(o.out + "/drive.bag", d, o, o.map_topic ? &map : nullptr);
   writePcdBinary(o.out + "/map.pcd", map);
   writePcdBinary(o.out + "/truth_map.pcd", sim::truthCloud(d.map));

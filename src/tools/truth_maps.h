@@ -65,6 +65,10 @@ SigmaCover sheetSigmaCover(const DriveMap& m, const GeoreferenceResult& r, const
 /// map's poses allow).
 MapScore scoreOwnPose(const DriveMap& m, const TruthDrive& d, const GeoreferenceResult& r);
 
+/// The map saved as a LiDAR SLAM saves it with per-point time (x, y, z float32, time float64,
+/// the scan's odometry stamp) and rebuilt from it (pose_rebuild.h), as the tool moves it.
+MapScore scoreRebuilt(const DriveMap& m, const TruthDrive& d, const GeoreferenceResult& r);
+
 /// The table (markdown) of the sheet's and the own poses' map errors on each drive and GNSS
 /// kind in `dirs`, with the defaults and `sets` applied.
 void printTruthMapRows(const std::vector<std::string>& dirs, int control_points,

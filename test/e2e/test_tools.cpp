@@ -154,6 +154,47 @@ TEST_F(Tools, TheSummarySaysTheSlamsJitterWasSmoothed) {
   EXPECT_EQ(smooth.output.find("cm smoothed"), std::string::npos) << smooth.output;
 }
 
+/// A map whose points carry their scan's time (simulate_drive --map-time), three laps the SLAM
+/// holds apart: each point is moved with its own pose, and the map lies closer to its truth than
+/// the rubber sheet's (map_pose_field none) on every measure; the summary and report.json say
+/// how it was moved. A field named that cannot name poses fails the run naming it.
+TEST_F(Tools, AMapWhosePointsKnowTheirTimeIsRebuiltFromTheirPoses) {
+  const std::string drive = out("timed");
+  ASSERT_TRUE(simulate(drive,
+                       "--map-points 100000 --seed 5 --laps 3 --length 2000 "
+                       "--heading-bias 0.3 --map-time"));
+  const std::string run = bin("georeference") + " --bag " + drive + "/drive.bag --map " + drive +
+                          "/map.pcd --truth " + drive + "/truth_map.pcd" + datum() +
+                          " --set report_png=false";
+  const Result r = sh(run + " --out " + out("timed_out"));
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("100000 points rebuilt, each with its own pose (field 'time'; 0 naming "
+                          "none, 0 NaN kept)"),
+            std::string::npos)
+      << r.output;
+  const nlohmann::json j = readJson(out("timed_out") + "/report.json");
+  EXPECT_EQ(j["map_moved_by"], "own_pose");
+  EXPECT_EQ(j["map_pose_field"], "time");
+  const Result sheet = sh(run + " --set map_pose_field=none -q --out " + out("timed_sheet"));
+  ASSERT_EQ(sheet.code, 0) << sheet.output;
+  const nlohmann::json k = readJson(out("timed_sheet") + "/report.json");
+  EXPECT_EQ(k["map_moved_by"], "rubber_sheet");
+  const nlohmann::json& rebuilt = j["map_vs_truth"]["rubbersheet"];
+  const nlohmann::json& warped = k["map_vs_truth"]["rubbersheet"];
+  std::printf("rebuilt: RMSE %.4f MAX %.4f m; the sheet: RMSE %.4f MAX %.4f m\n",
+              rebuilt["rmse"].get<double>(), rebuilt["max"].get<double>(),
+              warped["rmse"].get<double>(), warped["max"].get<double>());
+  EXPECT_LT(rebuilt["rmse"].get<double>(), 0.95 * warped["rmse"].get<double>());
+  EXPECT_LT(rebuilt["max"].get<double>(), 0.8 * warped["max"].get<double>());
+  const Result bad = sh(run + " --set map_pose_field=intensity -q --out " + out("timed_bad"));
+  EXPECT_NE(bad.code, 0);
+  EXPECT_NE(bad.output.find(drive + "/map.pcd: map_pose_field 'intensity' is neither float64 (a "
+                                    "time) nor an integer (a pose's index): type 7, count 1"),
+            std::string::npos)
+      << bad.output;
+  EXPECT_FALSE(fs::exists(out("timed_bad") + "/map_georeferenced.pcd"));
+}
+
 TEST_F(Tools, BagWithMapGivesEveryOutputAndAccurateMap) {
   const std::string o = out("bag");
   const Result r = sh(bin("georeference") + " --bag " + sim() + "/drive.bag --map " + sim() +

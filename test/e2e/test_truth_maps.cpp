@@ -45,6 +45,7 @@ TEST(TruthMaps, ALidarsMapAgainstItsTruthWithRtkGnss) {
     const study::DriveMap m = study::makeDriveMap(d);
     const study::MapScore sheet = study::scoreSheet(m, r);
     const study::MapScore own = study::scoreOwnPose(m, d, r);
+    const study::MapScore rebuilt = study::scoreRebuilt(m, d, r);
     const study::SigmaCover cover = study::sheetSigmaCover(m, r, Params{});
     std::printf(
         "%s: %zu points; the sheet %.3f / %.3f m (away from revisits %.3f / %.3f), each point's "
@@ -56,6 +57,18 @@ TEST(TruthMaps, ALidarsMapAgainstItsTruthWithRtkGnss) {
     EXPECT_LE(sheet.away_h.rmse, 1.1 * rec.away_h) << d.name;
     EXPECT_LE(sheet.away_v.rmse, 1.1 * rec.away_v) << d.name;
     EXPECT_LT(own.h.rmse, 0.25) << d.name;
+    // Saved with per-point time and rebuilt: as good as each point's own pose, everywhere.
+    std::printf("%s: rebuilt from its points' time %.3f / %.3f m (away %.3f / %.3f)\n",
+                d.name.c_str(), rebuilt.h.rmse, rebuilt.v.rmse, rebuilt.away_h.rmse,
+                rebuilt.away_v.rmse);
+    EXPECT_LE(rebuilt.h.rmse, 1.1 * own.h.rmse) << d.name;
+    EXPECT_LE(rebuilt.v.rmse, 1.1 * own.v.rmse) << d.name;
+    EXPECT_LE(rebuilt.away_h.rmse, 1.1 * own.away_h.rmse) << d.name;
+    EXPECT_LE(rebuilt.away_v.rmse, 1.1 * own.away_v.rmse) << d.name;
+    for (int b = 0; b < study::kBands; ++b) {
+      EXPECT_LE(rebuilt.band_h[b].rmse, 1.1 * own.band_h[b].rmse) << d.name << " band " << b;
+      EXPECT_LE(rebuilt.band_v[b].rmse, 1.1 * own.band_v[b].rmse) << d.name << " band " << b;
+    }
   }
   if (!any) GTEST_SKIP() << "kitti_lo not found (../shared/data/kitti_lo); skipped";
 }

@@ -6,6 +6,7 @@
 #include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -486,6 +487,50 @@ TEST_F(Live, LoadMapReplacesTheMapToWarp) {
   // The live map topic takes over again with the next message on it.
   publishDrive();
   EXPECT_EQ(callWhenComplete().map_points, drive_->map.slam.size());
+}
+
+/// A map whose points carry their scan's time (as a LiDAR SLAM saves it): each point is moved
+/// with its own pose, the answer names the field, and the published map lies on its truth with
+/// its point sigmas (point_sigma is on in live.test) in centimetres.
+TEST_F(Live, AMapWhosePointsKnowTheirTimeIsRebuiltFromTheirPoses) {
+  publishDrive();
+  ASSERT_TRUE(callWhenComplete().success);
+  EXPECT_EQ(call().map_pose_field, "");
+  Cloud timed;
+  ros_conv::toCloudMsg(sim::slamCloud(drive_->map, true), "map", timed);
+  map_pub_.publish(timed);
+  ASSERT_EQ(callUntil([](const flexcloud::Georeference::Response& a) {
+              return a.success && a.map_pose_field == "time";
+            }).map_pose_field,
+            "time");
+  const ros::Time before = ros::Time::now();  // the map of the next call (the timed one's)
+  const auto r = call();
+  ASSERT_TRUE(r.success) << r.message;
+  EXPECT_EQ(r.map_pose_field, "time");
+  EXPECT_EQ(r.map_points, drive_->map.slam.size());
+  EXPECT_EQ(r.points_outside, 0u);
+  const auto map = mapAfter(before, 20.0);
+  ASSERT_TRUE(map);
+  const ErrorStats e = againstTruth(*map, sim::truthCloud(drive_->map));
+  std::printf("live, rebuilt: map vs truth RMSE %.3f m, MAX %.3f m\n", e.rmse, e.max);
+  EXPECT_LE(e.rmse, 0.25);
+  // Its point sigmas (point_sigma is on in live.test) hold the truth: 95 % of the points within
+  // 2.45 sigma_h horizontally.
+  ASSERT_EQ(map->fields.back().name, "sigma_v");
+  const pcl::PCLPointCloud2 truth = sim::truthCloud(drive_->map);
+  std::size_t within = 0;
+  const std::size_t n = drive_->map.slam.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    float p[3], h;
+    double t[3];
+    std::memcpy(p, map->data.data() + i * map->point_step, 12);
+    std::memcpy(&h, map->data.data() + i * map->point_step + map->fields.back().offset - 4, 4);
+    std::memcpy(t, truth.data.data() + i * truth.point_step, 24);
+    within += std::hypot(p[0] - t[0], p[1] - t[1]) <= 2.45 * h ? 1 : 0;
+  }
+  const double share = 100.0 * static_cast<double>(within) / static_cast<double>(n);
+  std::printf("live, rebuilt: %.1f %% of the points within 2.45 sigma_h\n", share);
+  EXPECT_GE(share, 90.0);
 }
 
 /// A map message whose data holds fewer bytes than its points need (point_sigma is on in

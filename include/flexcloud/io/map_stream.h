@@ -13,6 +13,7 @@ namespace flexcloud {
 
 class MapPrecopy;
 class PointSigmaField;
+class PoseCorrections;
 
 struct MapStreamOptions {
   int threads = 0;  ///< warp threads; 0: all cores
@@ -27,6 +28,10 @@ struct MapStreamOptions {
   /// Where set, every point gains sigma_h and sigma_v from it (point_sigma.h); the body is then
   /// read, warped and written through buffers.
   const PointSigmaField* point_sigma = nullptr;
+  /// Where set, a map whose points name their pose (map_pose_field: "auto", "none" or a field's
+  /// name; pointPoseField()) is rebuilt with these corrections instead of warped.
+  const PoseCorrections* corrections = nullptr;
+  std::string pose_field = "auto";
   /// Stops the warp (with Error) once cancelled; the output file is then not created.
   const CancelToken* cancel = &neverCancelled();
 };

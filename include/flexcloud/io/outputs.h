@@ -21,6 +21,10 @@ class PlotJob;
 struct MapInfo {
   std::string input;  ///< file or topic it came from
   WarpStats warp;
+  /// The field whose pose moved each point (pose_rebuild.h); empty: the rubber sheet moved them.
+  std::string pose_field;
+  /// Why a field that names poses was not used ("" where none was found or it was used).
+  std::string pose_field_note;
   bool has_truth = false;
   ErrorStats truth_aligned;      ///< rigid-only map against the ground truth
   ErrorStats truth_rubbersheet;  ///< final map against the ground truth
@@ -81,6 +85,12 @@ std::string sigmaText(const GeoreferenceResult& r);
 std::string tumText(Trajectory poses, const GeoreferenceResult& r, bool gnss_clock);
 /// Every fix the fusion judged, with its residual, weight and verdict (gnss_fixes.txt).
 std::string fixesText(const GeoreferenceResult& r);
+
+/// resultWarnings() with what the map adds (map null: none): for a map rebuilt from its points'
+/// poses, the share of points that named no pose instead of the share beyond the GNSS coverage,
+/// and why a field that names poses was not used.
+std::vector<std::string> mapWarnings(const GeoreferenceResult& r, const Params& params,
+                                     const MapInfo* map, const std::string& map_frame);
 
 /// Writes the georeferenced map to the path it is given (a finished cloud, or a streaming warp
 /// that fills the MapInfo as it goes).

@@ -92,6 +92,7 @@ struct SimMap {
   std::vector<std::uint16_t> ring;
   std::vector<std::uint32_t> label;  ///< 1 ground, 2 wall, 3 pole
   std::vector<float> lateral;        ///< m, horizontal distance from the route's centre line
+  std::vector<double> time;          ///< s, SLAM clock: the stamp of the scan that saw it
 };
 
 struct SimDrive {

@@ -8,8 +8,10 @@
 namespace flexcloud::sim {
 
 /// The SLAM map as a SLAM system writes it: x y z (float32, map frame), intensity (float32),
-/// ring (uint16), label (uint32).
-pcl::PCLPointCloud2 slamCloud(const SimMap& map);
+/// ring (uint16), label (uint32); with `time`, also time (float64, s: the stamp of the scan that
+/// saw the point, on the odometry's clock), as a LiDAR SLAM saves a map whose points know their
+/// pose.
+pcl::PCLPointCloud2 slamCloud(const SimMap& map, bool time = false);
 
 /// The truth: the same points in the same order, x y z as float64 in the true ENU frame of the
 /// simulator's datum, with the same other fields.

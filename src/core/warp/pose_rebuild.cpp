@@ -1,0 +1,241 @@
+#include "flexcloud/warp/pose_rebuild.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include "flexcloud/uncertainty/point_sigma.h"
+#include "parallel.h"
+
+namespace flexcloud {
+
+namespace {
+
+template <typename T>
+double readAs(const std::uint8_t* p) {
+  T v;
+  std::memcpy(&v, p, sizeof(T));
+  return static_cast<double>(v);
+}
+
+using Matrix34 = Eigen::Matrix<double, 3, 4>;
+
+Matrix34 matrixOf(const Eigen::Isometry3d& t) { return t.matrix().topRows<3>(); }
+
+Eigen::Isometry3d isometry(const Eigen::Vector3d& p, const Eigen::Quaterniond& q) {
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.linear() = q.normalized().toRotationMatrix();
+  t.translation() = p;
+  return t;
+}
+
+/// The pose between a and b at fraction w: positions blended, orientations slerped.
+Eigen::Isometry3d between(const Pose& a, const Pose& b, double w) {
+  return isometry(a.position + w * (b.position - a.position),
+                  a.orientation.slerp(w, b.orientation));
+}
+
+std::string range(const std::vector<double>& values) {
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (double v : values) {
+    if (!std::isfinite(v)) continue;
+    lo = std::min(lo, v);
+    hi = std::max(hi, v);
+  }
+  char buf[96];
+  std::snprintf(buf, sizeof(buf), "%.3f to %.3f", lo, hi);
+  return buf;
+}
+
+}  // namespace
+
+double PointPoseField::read(const std::uint8_t* point) const {
+  const std::uint8_t* p = point + offset;
+  switch (type) {
+    case Type::kFloat64:
+      return readAs<double>(p);
+    case Type::kInt8:
+      return readAs<std::int8_t>(p);
+    case Type::kUint8:
+      return readAs<std::uint8_t>(p);
+    case Type::kInt16:
+      return readAs<std::int16_t>(p);
+    case Type::kUint16:
+      return readAs<std::uint16_t>(p);
+    case Type::kInt32:
+      return readAs<std::int32_t>(p);
+    case Type::kUint32:
+      return readAs<std::uint32_t>(p);
+  }
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+PoseCorrections::PoseCorrections(const Trajectory& slam, const Trajectory& result,
+                                 const Eigen::Isometry3d& rigid)
+    : slam_(slam), result_(result), rigid_(rigid) {
+  if (slam.empty() || slam.size() != result.size()) {
+    throw Error("rebuild: " + std::to_string(result.size()) + " result poses for " +
+                std::to_string(slam.size()) + " SLAM poses");
+  }
+  stamps_.reserve(slam.size());
+  corrections_.reserve(slam.size());
+  for (std::size_t i = 0; i < slam.size(); ++i) {
+    if (i > 0 && !(slam[i].stamp > slam[i - 1].stamp)) {
+      throw Error("rebuild: the SLAM's stamps do not increase at pose " + std::to_string(i));
+    }
+    stamps_.push_back(slam[i].stamp);
+    corrections_.push_back(matrixOf(isometry(result[i].position, result[i].orientation) *
+                                    isometry(slam[i].position, slam[i].orientation).inverse()));
+  }
+}
+
+bool PoseCorrections::atIndex(double i, Matrix34& out) const {
+  if (!(i >= 0.0) || i >= static_cast<double>(corrections_.size())) return false;
+  out = corrections_[static_cast<std::size_t>(i)];
+  return true;
+}
+
+bool PoseCorrections::atTime(double t, std::size_t& hint, Matrix34& out) const {
+  const std::size_t n = stamps_.size();
+  if (!std::isfinite(t) || t < stamps_.front() - kReach || t > stamps_.back() + kReach) {
+    return false;
+  }
+  if (t <= stamps_.front() || n == 1) {
+    out = corrections_.front();
+    return true;
+  }
+  if (t >= stamps_.back()) {
+    out = corrections_.back();
+    return true;
+  }
+  if (hint + 1 >= n || t < stamps_[hint] || t > stamps_[hint + 1]) {
+    hint = static_cast<std::size_t>(std::upper_bound(stamps_.begin(), stamps_.end(), t) -
+                                    stamps_.begin()) -
+           1;
+  }
+  const double w = (t - stamps_[hint]) / (stamps_[hint + 1] - stamps_[hint]);
+  out = matrixOf(between(result_[hint], result_[hint + 1], w) *
+                 between(slam_[hint], slam_[hint + 1], w).inverse());
+  return true;
+}
+
+std::string PoseCorrections::mismatch(const PointPoseField& field,
+                                      const std::vector<double>& values) const {
+  std::size_t finite = 0, named = 0;
+  std::size_t hint = 0;
+  Matrix34 m;
+  for (double v : values) {
+    if (!std::isfinite(v)) continue;
+    ++finite;
+    const bool ok = field.kind == PointPoseField::Kind::kTime ? atTime(v, hint, m) : atIndex(v, m);
+    named += ok ? 1 : 0;
+  }
+  if (finite == 0) return "field '" + field.name + "' holds no finite value";
+  if (10 * named >= 9 * finite) return "";
+  const std::string held = "field '" + field.name + "' holds " + range(values) + "; ";
+  if (field.kind == PointPoseField::Kind::kIndex) {
+    return held + "the trajectory has " + std::to_string(size()) + " poses";
+  }
+  char buf[160];
+  std::snprintf(buf, sizeof(buf), "the trajectory's stamps run from %.3f to %.3f s",
+                stamps_.front(), stamps_.back());
+  return held + buf + ": not the SLAM's clock";
+}
+
+std::vector<double> fieldValues(const std::uint8_t* data, std::size_t step, std::size_t points,
+                                const PointPoseField& field, std::size_t max) {
+  std::vector<double> values;
+  const std::size_t stride = std::max<std::size_t>(1, points / std::max<std::size_t>(1, max));
+  for (std::size_t i = 0; i < points; i += stride) values.push_back(field.read(data + i * step));
+  return values;
+}
+
+namespace {
+
+/// One thread's share of the points: the correction of the last point's pose is kept (a scan's
+/// points share their pose, or their time to half a millisecond).
+class Rebuilder {
+ public:
+  Rebuilder(const XyzLayout& layout, const PoseRebuild& rebuild, const SigmaSink& sigmas)
+      : layout_(layout), rebuild_(rebuild), sigmas_(sigmas) {}
+
+  void run(std::uint8_t* data, std::size_t begin, std::size_t end, const CancelToken& cancel,
+           WarpStats& s) {
+    for (std::size_t i = begin; i < end; ++i) {
+      if (((i - begin) & 0xFFFF) == 0 && cancel.cancelled()) return;
+      std::uint8_t* pt = data + i * layout_.point_step;
+      const Eigen::Vector3d p = layout_.get(pt);
+      ++s.points;
+      if (!p.allFinite()) {
+        ++s.non_finite;
+        writeSigma(i, {kNaN, kNaN});
+        continue;
+      }
+      if (!lookUp(rebuild_.field.read(pt))) ++s.outside;
+      const Eigen::Vector3d q = m_.leftCols<3>() * p + m_.col(3);
+      layout_.set(pt, q);
+      if (sigmas_.field != nullptr) writeSigma(i, sigmas_.field->rigid(q));
+    }
+  }
+
+ private:
+  static constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+  /// Sets m_ to the correction the value names (rigid where it names no pose); false there.
+  bool lookUp(double v) {
+    const bool time = rebuild_.field.kind == PointPoseField::Kind::kTime;
+    const double key = time ? std::round(v * 2000.0) : v;
+    if (has_key_ && key == key_) return named_;
+    const PoseCorrections& c = *rebuild_.corrections;
+    named_ = time ? c.atTime(key / 2000.0, hint_, m_) : c.atIndex(v, m_);
+    if (!named_) m_ = c.rigid().matrix().topRows<3>();
+    has_key_ = std::isfinite(key);
+    key_ = key;
+    return named_;
+  }
+
+  void writeSigma(std::size_t i, const PointSigma& s) {
+    if (sigmas_.field == nullptr) return;
+    std::uint8_t* out = sigmas_.out + i * sigmas_.stride;
+    std::memcpy(out, &s.h, sizeof(float));
+    std::memcpy(out + sizeof(float), &s.v, sizeof(float));
+  }
+
+  const XyzLayout& layout_;
+  const PoseRebuild& rebuild_;
+  const SigmaSink& sigmas_;
+  Matrix34 m_ = Matrix34::Zero();
+  bool has_key_ = false, named_ = false;
+  double key_ = 0.0;
+  std::size_t hint_ = 0;
+};
+
+}  // namespace
+
+WarpStats rebuildPoints(std::uint8_t* data, const XyzLayout& layout, const PoseRebuild& rebuild,
+                        int threads, const std::string& name, const CancelToken& cancel,
+                        const SigmaSink& sigmas) {
+  if (rebuild.corrections == nullptr) throw Error(name + ": rebuild: no pose corrections");
+  const std::size_t n = layout.points;
+  WarpStats total;
+  for (std::size_t i = 0, stride = std::max<std::size_t>(1, n / 1000); i < n; i += stride) {
+    const Eigen::Vector3d p = layout.get(data + i * layout.point_step);
+    if (p.allFinite()) total.sample.push_back(p);
+  }
+  const auto parts = static_cast<std::size_t>(
+      std::max(1, std::min<int>(threadCount(threads), static_cast<int>(n / 65536 + 1))));
+  std::vector<WarpStats> part(parts);
+  parallelRanges(n, parts, threads, [&](std::size_t k, std::size_t begin, std::size_t end) {
+    Rebuilder(layout, rebuild, sigmas).run(data, begin, end, cancel, part[k]);
+  });
+  cancel.check(name + ": rebuild");
+  for (const auto& s : part) {
+    total.points += s.points;
+    total.outside += s.outside;
+    total.non_finite += s.non_finite;
+  }
+  return total;
+}
+
+}  // namespace flexcloud
