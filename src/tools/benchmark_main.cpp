@@ -271,6 +271,50 @@ void benchmarkWarpWithSigmas(const Options& o, const GeoreferenceResult& r,
   }
 }
 
+/// A map saved with per-point time (simulate_drive --map-time) rebuilt from its points' poses
+/// (pose_rebuild.h), in scan and in random order, against the warp of the same rows by the sheet
+/// (paired, alternating); and rebuilt with point sigmas, into rows widened for them.
+void benchmarkRebuild(const Options& o, const GeoreferenceResult& r, const sim::SimDrive& d) {
+  const pcl::PCLPointCloud2 timed = sim::slamCloud(d.map, true);
+  const pcl::PCLPointCloud2 random = shuffled(timed);
+  const std::size_t n = static_cast<std::size_t>(timed.width) * timed.height;
+  const PoseCorrections corrections(r.poses, resultPoses(r), r.T_enu_map);
+  const PoseRebuild rebuild{*pointPoseField(timed.fields, "auto", "map"), &corrections};
+  const PointSigmaField field(r.rubbersheet, r.sigma, *r.sheet);
+  const std::size_t step = timed.point_step, wide_step = step + kPointSigmaBytes;
+  std::vector<std::uint8_t> wide(n * wide_step);
+  XyzLayout wide_layout = xyzLayout(timed, "map");
+  wide_layout.point_step = wide_step;
+  for (const pcl::PCLPointCloud2* in : {&timed, &random}) {
+    pcl::PCLPointCloud2 cloud = *in;
+    const XyzLayout layout = xyzLayout(cloud, "map");
+    double warp = 1e300, rebuilt = 1e300, with_sigmas = 1e300;
+    for (int i = 0; i < o.repeat; ++i) {
+      std::copy(in->data.begin(), in->data.end(), cloud.data.begin());
+      warp = std::min(warp,
+                      seconds([&] { warpPoints(cloud.data.data(), layout, *r.sheet, o.threads); }));
+      std::copy(in->data.begin(), in->data.end(), cloud.data.begin());
+      rebuilt = std::min(
+          rebuilt, seconds([&] { rebuildPoints(cloud.data.data(), layout, rebuild, o.threads); }));
+      widenPoints(in->data.data(), step, n, wide.data());
+      with_sigmas =
+          std::min(with_sigmas, seconds([&] {
+                     rebuildPoints(wide.data(), wide_layout, rebuild, o.threads, "map",
+                                   neverCancelled(), {&field, wide.data() + step, wide_step});
+                   }));
+    }
+    const char* order = in == &timed ? "" : ", random order";
+    std::printf(
+        "| %zu | rebuild from per-point time%s | | %.3f s | %.1f M/s | %.2fx the warp of the same "
+        "rows (%.3f s) |\n",
+        n, order, rebuilt, n / rebuilt / 1e6, rebuilt / warp, warp);
+    std::printf(
+        "| %zu | rebuild with point sigmas%s, into the widened rows | | %.3f s | %.1f M/s | %.2fx "
+        "the warp |\n",
+        n, order, with_sigmas, n / with_sigmas / 1e6, with_sigmas / warp);
+  }
+}
+
 /// The whole offline tool on a map file: best wall time of `repeat` runs and its own peak
 /// memory.
 ProcessRun toolRun(const Options& o, int cps, const std::pair<std::string, std::string>& inputs,
@@ -349,6 +393,7 @@ void onePointCount(const Options& o, std::size_t n) {
     const GeoreferenceResult r = georeference(in, p);
     benchmarkWarp(o, cps, r, original, random);
     benchmarkWarpWithSigmas(o, r, original, random);
+    if (cps == 200) benchmarkRebuild(o, r, d);
     if (o.tool) {
       benchmarkTool(o, cps, inputs, pcd, dir, n, static_cast<double>(original.data.size()) / 1e6,
                     io);

@@ -73,13 +73,9 @@ class PointSigmaField {
     combine(t.var_h, t.var_v, t.dh2, t.dz2, t.bend2, t.cap2, s.h, s.v);
     return s;
   }
-  /// The sigma of a point at `enu` moved rigidly with its pose (no strain of the sheet).
-  PointSigma rigid(const Eigen::Vector3d& enu) const {
-    const Terms t = terms(local(enu), -1);
-    PointSigma s;
-    combine(t.var_h, t.var_v, t.dh2, t.dz2, 0.0F, 0.0F, s.h, s.v);
-    return s;
-  }
+  /// The tetrahedron number that stands for a point moved rigidly with its own pose (a map
+  /// rebuilt from its points' poses, pose_rebuild.h): no strain of the sheet.
+  int rigidTet() const { return static_cast<int>(tet_terms_.size()) - 2; }
   /// A place about the grid's origin, in floats (metres to kilometres, to a millimetre).
   Eigen::Vector3f local(const Eigen::Vector3d& enu) const { return (enu - origin_).cast<float>(); }
   /// The terms of the sigma of a point at `p` about the grid's origin (local()), warped by

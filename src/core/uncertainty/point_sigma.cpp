@@ -86,6 +86,7 @@ PointSigmaField::PointSigmaField(const Trajectory& result, const PoseSigmas& sig
   };
   tet_terms_.push_back(terms(strain_.back()));
   for (std::size_t t = 0; t + 1 < strain_.size(); ++t) tet_terms_.push_back(terms(strain_[t]));
+  tet_terms_.push_back({0.0F, 0.0F});  // rigidTet(): no strain
   // Without the poses' sigmas nothing is known: every point's sigma is infinite.
   const bool known = sigmas.h.size() == result.size() && sigmas.v.size() == result.size();
   const double inf = std::numeric_limits<double>::infinity();

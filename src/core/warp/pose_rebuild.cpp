@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <memory>
 
 #include "flexcloud/uncertainty/point_sigma.h"
 #include "parallel.h"
@@ -73,7 +74,7 @@ double PointPoseField::read(const std::uint8_t* point) const {
 
 PoseCorrections::PoseCorrections(const Trajectory& slam, const Trajectory& result,
                                  const Eigen::Isometry3d& rigid)
-    : slam_(slam), result_(result), rigid_(rigid) {
+    : rigid_(rigid) {
   if (slam.empty() || slam.size() != result.size()) {
     throw Error("rebuild: " + std::to_string(result.size()) + " result poses for " +
                 std::to_string(slam.size()) + " SLAM poses");
@@ -87,6 +88,21 @@ PoseCorrections::PoseCorrections(const Trajectory& slam, const Trajectory& resul
     stamps_.push_back(slam[i].stamp);
     corrections_.push_back(matrixOf(isometry(result[i].position, result[i].orientation) *
                                     isometry(slam[i].position, slam[i].orientation).inverse()));
+    if (i > 0) {
+      halfway_.push_back(matrixOf(between(result[i - 1], result[i], 0.5) *
+                                  between(slam[i - 1], slam[i], 0.5).inverse()));
+    }
+  }
+  // Buckets as many as the poses over their span, each with the interval its start lies in.
+  const std::size_t n = stamps_.size();
+  const double span = stamps_.back() - stamps_.front();
+  inv_bucket_ = span > 0.0 ? static_cast<double>(n) / span : 0.0;
+  bucket_first_.resize(n + 1);
+  std::size_t k = 0;
+  for (std::size_t b = 0; b <= n; ++b) {
+    const double t = stamps_.front() + static_cast<double>(b) / std::max(inv_bucket_, 1e-300);
+    while (k + 2 < n && stamps_[k + 1] <= t) ++k;
+    bucket_first_[b] = k;
   }
 }
 
@@ -110,13 +126,16 @@ bool PoseCorrections::atTime(double t, std::size_t& hint, Matrix34& out) const {
     return true;
   }
   if (hint + 1 >= n || t < stamps_[hint] || t > stamps_[hint + 1]) {
-    hint = static_cast<std::size_t>(std::upper_bound(stamps_.begin(), stamps_.end(), t) -
-                                    stamps_.begin()) -
-           1;
+    const auto b = std::min(bucket_first_.size() - 1,
+                            static_cast<std::size_t>((t - stamps_.front()) * inv_bucket_));
+    hint = bucket_first_[b];
+    while (hint + 2 < n && stamps_[hint + 1] < t) ++hint;
   }
+  // Through the correction at both poses and halfway: quadratic in w, as the exact one is to
+  // within the cube of the correction's turn between the poses.
   const double w = (t - stamps_[hint]) / (stamps_[hint + 1] - stamps_[hint]);
-  out = matrixOf(between(result_[hint], result_[hint + 1], w) *
-                 between(slam_[hint], slam_[hint + 1], w).inverse());
+  out = ((1.0 - w) * (1.0 - 2.0 * w)) * corrections_[hint] +
+        (4.0 * w * (1.0 - w)) * halfway_[hint] + (w * (2.0 * w - 1.0)) * corrections_[hint + 1];
   return true;
 }
 
@@ -158,7 +177,11 @@ namespace {
 class Rebuilder {
  public:
   Rebuilder(const XyzLayout& layout, const PoseRebuild& rebuild, const SigmaSink& sigmas)
-      : layout_(layout), rebuild_(rebuild), sigmas_(sigmas) {}
+      : layout_(layout),
+        rebuild_(rebuild),
+        sigmas_(sigmas),
+        batch_(sigmas.field != nullptr ? std::make_unique<PointSigmaBatch>(sigmas) : nullptr),
+        rigid_tet_(sigmas.field != nullptr ? sigmas.field->rigidTet() : 0) {}
 
   void run(std::uint8_t* data, std::size_t begin, std::size_t end, const CancelToken& cancel,
            WarpStats& s) {
@@ -175,8 +198,9 @@ class Rebuilder {
       if (!lookUp(rebuild_.field.read(pt))) ++s.outside;
       const Eigen::Vector3d q = m_.leftCols<3>() * p + m_.col(3);
       layout_.set(pt, q);
-      if (sigmas_.field != nullptr) writeSigma(i, sigmas_.field->rigid(q));
+      if (batch_) batch_->add(q, rigid_tet_, i);
     }
+    if (batch_) batch_->flush();
   }
 
  private:
@@ -205,6 +229,9 @@ class Rebuilder {
   const XyzLayout& layout_;
   const PoseRebuild& rebuild_;
   const SigmaSink& sigmas_;
+  /// The sigmas, a batch at a time (point_sigma.h), as the rigid move of each point's pose.
+  std::unique_ptr<PointSigmaBatch> batch_;
+  int rigid_tet_;
   Matrix34 m_ = Matrix34::Zero();
   bool has_key_ = false, named_ = false;
   double key_ = 0.0;
