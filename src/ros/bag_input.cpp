@@ -101,10 +101,13 @@ BagSummary readBag(const std::string& path, const BagTopics& topics, DriveCollec
     const bool fall_back = topics.fall_back_by_type;
     out.fix_topic =
         resolve(path, types, topics.fix, {kFixType}, "GNSS fix", "--fix-topic", fall_back);
-    out.odom_topic = resolve(path, types, topics.odom, {kOdomType, kPoseType, kPathType},
-                             "odometry", "--odom-topic", fall_back);
-    out.odom_type = types.at(out.odom_topic);
-    std::vector<std::string> read{out.fix_topic, out.odom_topic};
+    std::vector<std::string> read{out.fix_topic};
+    if (!topics.fixes_only) {
+      out.odom_topic = resolve(path, types, topics.odom, {kOdomType, kPoseType, kPathType},
+                               "odometry", "--odom-topic", fall_back);
+      out.odom_type = types.at(out.odom_topic);
+      read.push_back(out.odom_topic);
+    }
     if (topics.map_if_any) {
       out.map_topic = mapIfAny(types, topics.map);
     } else if (!topics.map.empty()) {

@@ -1,5 +1,6 @@
 #include "flexcloud/sim/sim_cloud.h"
 
+#include <cmath>
 #include <cstring>
 
 #include "flexcloud/io/cloud_layout.h"
@@ -52,6 +53,36 @@ pcl::PCLPointCloud2 build(const SimMap& map, bool truth, bool time) {
 }
 
 }  // namespace
+
+std::vector<std::pair<Pose, pcl::PCLPointCloud2>> keyframeClouds(const SimDrive& d) {
+  std::vector<std::pair<Pose, pcl::PCLPointCloud2>> out;
+  const pcl::PCLPointCloud2 all = slamCloud(d.map);
+  std::size_t k = 0;  // the pose of the scan at hand (the map is stored scan by scan)
+  for (std::size_t i = 0; i < d.map.slam.size();) {
+    std::size_t end = i;
+    while (end < d.map.slam.size() && d.map.time[end] == d.map.time[i]) ++end;
+    while (k < d.slam.size() && d.slam[k].stamp < d.map.time[i] - 1e-6) ++k;
+    if (k < d.slam.size() && std::abs(d.slam[k].stamp - d.map.time[i]) < 1e-6) {
+      Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+      pose.linear() = d.slam[k].orientation.toRotationMatrix();
+      pose.translation() = d.slam[k].position;
+      pcl::PCLPointCloud2 c = all;
+      c.width = static_cast<std::uint32_t>(end - i);
+      c.row_step = c.point_step * c.width;
+      c.data.assign(all.data.begin() + static_cast<std::ptrdiff_t>(i * all.point_step),
+                    all.data.begin() + static_cast<std::ptrdiff_t>(end * all.point_step));
+      for (std::size_t j = i; j < end; ++j) {
+        const Eigen::Vector3d body = pose.inverse() * d.map.slam[j];
+        for (int a = 0; a < 3; ++a) {
+          put<float>(c.data.data() + (j - i) * c.point_step + 4 * a, static_cast<float>(body(a)));
+        }
+      }
+      out.emplace_back(d.slam[k], std::move(c));
+    }
+    i = end;
+  }
+  return out;
+}
 
 pcl::PCLPointCloud2 slamCloud(const SimMap& map, bool time) { return build(map, false, time); }
 pcl::PCLPointCloud2 truthCloud(const SimMap& map) { return build(map, true, false); }

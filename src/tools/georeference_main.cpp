@@ -20,6 +20,7 @@
 #include "flexcloud/io/atomic_file.h"
 #include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/io/config.h"
+#include "flexcloud/io/keyframes.h"
 #include "flexcloud/io/map_precopy.h"
 #include "flexcloud/io/map_stream.h"
 #include "flexcloud/io/memory.h"
@@ -55,6 +56,11 @@ INPUT, one of:
     --poses-stamp-unit U  size (s below 1e10, ms, us, ns above 1e16) and stamps counted
                           from 0 as seconds
     --stamp-unit U        both at once
+  --keyframes DIR         with --gnss FILE or --bag FILE (its fixes), instead of the poses
+                          and --map: a SLAM's keyframe dump (hdl_graph_slam, interactive_slam:
+                          a subfolder per keyframe with data and cloud.pcd); its poses are the
+                          trajectory, and the map is rebuilt a keyframe at a time, each moved
+                          with its own pose's correction
                           Clocks that differ by a constant (poses from 0, GNSS in Unix
                           time): --set gnss_time_offset=S, the SLAM clock minus the GNSS
                           clock (the error for spans that do not overlap gives S)
@@ -97,7 +103,7 @@ options:
 )";
 
 struct Options {
-  std::string bag, fix_topic, odom_topic, gnss, poses, map, truth, config, to_ll;
+  std::string bag, fix_topic, odom_topic, gnss, poses, map, truth, config, to_ll, keyframes;
   std::optional<Datum> truth_datum;  ///< the datum the truth is in (--truth-datum, truth.yaml)
   std::string out = "flexcloud_out";
   bool gnss_local = false;
@@ -204,6 +210,8 @@ Options parseOptions(int argc, char** argv) {
       o.poses_unit = stampUnit(f, a.text(f));
     } else if (f == "--map") {
       o.map = a.text(f);
+    } else if (f == "--keyframes") {
+      o.keyframes = a.text(f);
     } else if (f == "--out") {
       o.out = a.text(f);
     } else if (f == "--datum") {
@@ -234,7 +242,12 @@ Options parseOptions(int argc, char** argv) {
   });
   const bool text = !o.gnss.empty() || !o.poses.empty();
   if (!o.bag.empty() && text) throw UsageError("give --bag or --gnss/--poses, not both");
-  if (o.bag.empty() && (o.gnss.empty() || o.poses.empty())) {
+  if (!o.keyframes.empty()) {
+    if (!o.poses.empty() || !o.map.empty() || !o.truth.empty()) {
+      throw UsageError("--keyframes gives the poses and the map: no --poses, --map or --truth");
+    }
+    if (o.bag.empty() && o.gnss.empty()) throw UsageError("--keyframes needs --gnss or --bag");
+  } else if (o.bag.empty() && (o.gnss.empty() || o.poses.empty())) {
     throw UsageError("give --bag FILE, or both --gnss FILE and --poses FILE");
   }
   if (!o.truth.empty() && o.map.empty()) throw UsageError("--truth needs --map");
@@ -270,18 +283,28 @@ class Progress {
 
 void checkCancel() { g_interrupt.check("georeference"); }
 
-DriveInput loadDrive(const Options& o, const Progress& log, std::string& map_frame) {
+DriveInput loadDrive(const Options& o, const Progress& log, std::string& map_frame,
+                     const std::vector<Keyframe>& keyframes) {
+  if (!keyframes.empty()) {
+    log.say("  " + std::to_string(keyframes.size()) + " keyframes in " + o.keyframes);
+    DriveInput in = loadDrive(o, log, map_frame, {});  // the fixes (a bag's odometry unread)
+    in.poses = keyframePoses(keyframes);
+    return in;
+  }
   if (!o.bag.empty()) {
     DriveCollector collector;
     log.say("reading " + o.bag);
     BagTopics topics;
     topics.fix = o.fix_topic;
     topics.odom = o.odom_topic;
+    topics.fixes_only = !o.keyframes.empty();
     const BagSummary s = readBag(o.bag, topics, collector, nullptr, [&](double f) {
       log.say("  bag " + std::to_string(static_cast<int>(100 * f)) + "%");
     });
-    log.say("  " + std::to_string(s.fixes) + " fixes on " + s.fix_topic + ", " +
-            std::to_string(s.poses) + " " + s.odom_type + " on " + s.odom_topic);
+    log.say("  " + std::to_string(s.fixes) + " fixes on " + s.fix_topic +
+            (s.odom_topic.empty()
+                 ? std::string()
+                 : ", " + std::to_string(s.poses) + " " + s.odom_type + " on " + s.odom_topic));
     map_frame = collector.mapFrame().empty() ? "map" : collector.mapFrame();
     return collector.snapshot();
   }
@@ -291,7 +314,7 @@ DriveInput loadDrive(const Options& o, const Progress& log, std::string& map_fra
   } else {
     in.fixes = readGeodeticGnssFile(o.gnss, o.gnss_unit);
   }
-  in.poses = readTumFile(o.poses, o.poses_unit);
+  if (o.keyframes.empty()) in.poses = readTumFile(o.poses, o.poses_unit);
   return in;
 }
 
@@ -355,7 +378,13 @@ void printSummary(const GeoreferenceResult& r, const Params& params, const MapIn
                 "%.3f STD %.3f MAX %.3f m\n",
                 a.mae, a.std, a.max, b.mae, b.std, b.max);
   std::cout << line;
-  if (map != nullptr && !map->pose_field.empty()) {
+  if (map != nullptr && map->pose_field == kKeyframeDump) {
+    std::snprintf(line, sizeof(line),
+                  "  map            %zu points of a keyframe dump rebuilt, each keyframe with its "
+                  "own pose (%zu naming none, %zu NaN kept)\n",
+                  map->warp.points, map->warp.outside, map->warp.non_finite);
+    std::cout << line;
+  } else if (map != nullptr && !map->pose_field.empty()) {
     std::snprintf(line, sizeof(line),
                   "  map            %zu points rebuilt, each with its own pose (field '%s'; %zu "
                   "naming none, %zu NaN kept)\n",
@@ -448,6 +477,20 @@ MapWriter streamedMap(const Options& o, const Params& params, const Georeference
   };
 }
 
+/// The writer that rebuilds a keyframe dump's map, a keyframe at a time.
+MapWriter keyframeMap(const Options& o, const Params& params, const GeoreferenceResult& r,
+                      const Progress& log, const std::vector<Keyframe>& keyframes, MapInfo& info) {
+  return [&o, &params, &r, &log, &keyframes, &info](const std::string& path) {
+    log.say("rebuilding the map of " + o.keyframes);
+    const PoseCorrections corrections(r.poses, resultPoses(r), r.T_enu_map);
+    std::optional<PointSigmaField> sigmas;
+    if (params.point_sigma)
+      sigmas.emplace(r.rubbersheet, r.sigma, *r.sheet, pointSigmaModel(params));
+    writeKeyframeMap(keyframes, corrections, path, sigmas ? &*sigmas : nullptr, g_interrupt, info);
+    info.input = o.keyframes;
+  };
+}
+
 int run(int argc, char** argv) {
   const Options o = parseOptions(argc, argv);
   const Params params = loadParams(o);
@@ -456,15 +499,18 @@ int run(int argc, char** argv) {
   // Python and matplotlib load while the drive is georeferenced.
   std::optional<PlotJob> plot;
   if (params.report_png) context.plot = &plot.emplace(findPlotScript());
-  const DriveInput drive = loadDrive(o, log, context.frames.map);
+  const std::vector<Keyframe> keyframes =
+      o.keyframes.empty() ? std::vector<Keyframe>() : readKeyframes(o.keyframes);
+  const DriveInput drive = loadDrive(o, log, context.frames.map, keyframes);
   checkCancel();
   MapInfo info;
-  const bool has_map = checkMap(o, params.point_sigma, info);
+  const bool map_file = checkMap(o, params.point_sigma, info);
+  const bool has_map = map_file || !keyframes.empty();
   checkCancel();
   // A binary map's body starts on its way into the output now, beside the georeferencing.
   // (With point sigmas every point grows: the body is written by the warp.)
   const std::unique_ptr<MapPrecopy> precopy =
-      has_map && !params.point_sigma ? MapPrecopy::start(o.map, o.out) : nullptr;
+      map_file && !params.point_sigma ? MapPrecopy::start(o.map, o.out) : nullptr;
 
   std::vector<Eigen::Vector3d> to_ll;
   if (!o.to_ll.empty()) to_ll = readPointsFile(o.to_ll);
@@ -476,8 +522,9 @@ int run(int argc, char** argv) {
   checkDegraded(r, params, nullptr, context.frames.map);  // before the map: it costs nothing
   checkCancel();
 
-  const MapWriter write_map =
-      has_map ? streamedMap(o, params, r, log, info, precopy.get()) : MapWriter();
+  const MapWriter write_map = !keyframes.empty() ? keyframeMap(o, params, r, log, keyframes, info)
+                              : has_map ? streamedMap(o, params, r, log, info, precopy.get())
+                                        : MapWriter();
   checkCancel();
   log.say("writing " + o.out);
   context.map = has_map ? &info : nullptr;

@@ -15,6 +15,7 @@
 
 #include "cli.h"
 #include "flexcloud/io/atomic_file.h"
+#include "flexcloud/io/keyframes.h"
 #include "flexcloud/io/pcd_io.h"
 #include "flexcloud/io/text_io.h"
 #include "flexcloud/param_table.h"
@@ -55,6 +56,9 @@ constexpr const char* kUsage = R"(usage: simulate_drive [options]
   --map-topic             also put the SLAM map into the bag on /map (PointCloud2)
   --map-time              give every map point a float64 field time: the odometry stamp of
                           the scan that saw it (georeference then rebuilds the map from it)
+  --keyframes             also write the map as a keyframe SLAM's dump: keyframes/NNNNNN/data
+                          (stamp, pose) and cloud.pcd (its points in its own frame), for
+                          georeference --keyframes
   -h, --help
 )";
 
@@ -66,6 +70,7 @@ struct Options {
   std::string odom_topic = "/odom";
   bool map_topic = false;
   bool map_time = false;
+  bool keyframes = false;
 };
 
 Options parse(int argc, char** argv) {
@@ -131,6 +136,8 @@ Options parse(int argc, char** argv) {
       o.map_topic = true;
     } else if (f == "--map-time") {
       o.map_time = true;
+    } else if (f == "--keyframes") {
+      o.keyframes = true;
     } else {
       return false;
     }
@@ -201,6 +208,19 @@ std::string truthYaml(const sim::SimDrive& d) {
   return s.str();
 }
 
+/// The map as a keyframe SLAM's dump (keyframes.h): a folder per pose that saw points.
+void writeKeyframeDump(const std::string& dir, const sim::SimDrive& d) {
+  const auto keyframes = sim::keyframeClouds(d);
+  for (std::size_t i = 0; i < keyframes.size(); ++i) {
+    char name[16];
+    std::snprintf(name, sizeof(name), "/%06zu", i);
+    const std::string kf = dir + name;
+    makeDirectories(kf);
+    writeTextFile(kf + "/data", keyframeDataText(keyframes[i].first));
+    writePcdBinary(kf + "/cloud.pcd", keyframes[i].second);
+  }
+}
+
 int run(int argc, char** argv) {
   const Options o = parse(argc, argv);
   const sim::SimDrive d = sim::simulateDrive(o.sim);
@@ -213,6 +233,7 @@ int run(int argc, char** argv) {
   writeTextFile(o.out + "/slam_trajectory.txt", formatTum(d.slam));
   writeTextFile(o.out + "/truth_trajectory.txt", formatTum(d.truth));
   writeTextFile(o.out + "/truth.yaml", truthYaml(d));
+  if (o.keyframes) writeKeyframeDump(o.out + "/keyframes", d);
   std::cout << "simulate_drive: " << (o.sim.loop ? "loop" : "open") << " route of " << o.sim.length
             << " m, " << d.slam.size() << " poses, " << d.fixes.size() << " fixes, "
             << d.map.slam.size() << " map points -> " << o.out << "\n";

@@ -195,6 +195,69 @@ TEST_F(Tools, AMapWhosePointsKnowTheirTimeIsRebuiltFromTheirPoses) {
   EXPECT_FALSE(fs::exists(out("timed_bad") + "/map_georeferenced.pcd"));
 }
 
+/// A keyframe SLAM's dump (simulate_drive --keyframes: a folder per keyframe with its pose and
+/// its points in its own frame) with the GNSS of a text file or a bag: the keyframes are the
+/// trajectory and the map is rebuilt from them, as close to its truth as the map whose points
+/// carry their time, and closer than the sheet's; with point sigmas that hold the truth.
+TEST_F(Tools, AKeyframeDumpIsTheTrajectoryAndItsMapIsRebuilt) {
+  const std::string drive = out("dump");
+  ASSERT_TRUE(simulate(drive,
+                       "--map-points 100000 --seed 5 --laps 3 --length 2000 "
+                       "--heading-bias 0.3 --keyframes"));
+  const pcl::PCLPointCloud2 truth = readPcd(drive + "/truth_map.pcd");
+  const auto error = [&](const std::string& o) {
+    return compareClouds(readPcd(o + "/map_georeferenced.pcd"), truth,
+                         [](const Eigen::Vector3d& p) { return p; });
+  };
+  const std::string tail =
+      " --keyframes " + drive + "/keyframes" + datum() + " --set report_png=false --point-sigma";
+  const Result r = sh(bin("georeference") + " --gnss " + drive + "/gnss.txt" + tail + " --out " +
+                      out("dump_out"));
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("100000 points of a keyframe dump rebuilt, each keyframe with its own "
+                          "pose (0 naming none, 0 NaN kept)"),
+            std::string::npos)
+      << r.output;
+  const Result sheet = sh(bin("georeference") + " -q --gnss " + drive + "/gnss.txt --poses " +
+                          drive + "/slam_trajectory.txt --map " + drive + "/map.pcd" + datum() +
+                          " --set report_png=false --out " + out("dump_sheet"));
+  ASSERT_EQ(sheet.code, 0) << sheet.output;
+  const ErrorStats rebuilt = error(out("dump_out")), warped = error(out("dump_sheet"));
+  std::printf("keyframes rebuilt: RMSE %.4f MAX %.4f m; the sheet: RMSE %.4f MAX %.4f m\n",
+              rebuilt.rmse, rebuilt.max, warped.rmse, warped.max);
+  EXPECT_EQ(rebuilt.count, 100000u);
+  EXPECT_LT(rebuilt.rmse, 0.95 * warped.rmse);
+  EXPECT_LT(rebuilt.max, 0.8 * warped.max);
+  // The bag's fixes (its odometry left unread) give the same map.
+  const Result bag = sh(bin("georeference") + " -q --bag " + drive + "/drive.bag" + tail +
+                        " --out " + out("dump_bag"));
+  ASSERT_EQ(bag.code, 0) << bag.output;
+  EXPECT_LT(error(out("dump_bag")).rmse, 1.1 * rebuilt.rmse);
+  // The sigmas: 95 % of the points within 2.45 sigma_h of their truth, give or take.
+  const pcl::PCLPointCloud2 map = readPcd(out("dump_out") + "/map_georeferenced.pcd");
+  const XyzLayout lm = xyzLayout(map, "map"), lt = xyzLayout(truth, "truth");
+  std::size_t sigma_at = 0, within = 0;
+  for (const auto& f : map.fields) sigma_at = f.name == "sigma_h" ? f.offset : sigma_at;
+  ASSERT_GT(sigma_at, 0u);
+  for (std::size_t i = 0; i < lm.points; ++i) {
+    float h;
+    std::memcpy(&h, map.data.data() + i * lm.point_step + sigma_at, 4);
+    const Eigen::Vector3d e =
+        lm.get(map.data.data() + i * lm.point_step) - lt.get(truth.data.data() + i * lt.point_step);
+    within += e.head<2>().norm() <= 2.45 * h ? 1 : 0;
+  }
+  const double share = 100.0 * static_cast<double>(within) / static_cast<double>(lm.points);
+  std::printf("keyframes rebuilt: %.1f %% within 2.45 sigma_h\n", share);
+  EXPECT_GE(share, 85.0);
+  const Result both = sh(bin("georeference") + " -q --gnss " + drive + "/gnss.txt --map " + drive +
+                         "/map.pcd" + tail + " --out " + out("dump_both"));
+  EXPECT_EQ(both.code, 2);
+  EXPECT_NE(both.output.find("--keyframes gives the poses and the map: no --poses, --map or "
+                             "--truth"),
+            std::string::npos)
+      << both.output;
+}
+
 TEST_F(Tools, BagWithMapGivesEveryOutputAndAccurateMap) {
   const std::string o = out("bag");
   const Result r = sh(bin("georeference") + " --bag " + sim() + "/drive.bag --map " + sim() +

@@ -77,12 +77,13 @@ class Readme(unittest.TestCase):
         drive = cls.tmp / "drive"
         out = subprocess.run([str(ROOT / "scripts/env.sh"), "rosrun", "flexcloud", "simulate_drive",
                               "--out", str(drive), "--length", "1000", "--map-points", "50000",
-                              "--fix-topic", "/gnss/fix", "--odom-topic", "/slam/odom"],
+                              "--fix-topic", "/gnss/fix", "--odom-topic", "/slam/odom",
+                              "--keyframes"],
                              env=cls.env, capture_output=True, text=True)
         assert out.returncode == 0, out.stdout + out.stderr
         for name, target in [("drive.bag", "drive.bag"), ("slam_map.pcd", "map.pcd"),
                              ("map.pcd", "map.pcd"), ("gnss.txt", "gnss.txt"),
-                             ("poses_tum.txt", "slam_trajectory.txt")]:
+                             ("poses_tum.txt", "slam_trajectory.txt"), ("keyframes", "keyframes")]:
             (cls.user / name).symlink_to(drive / target)
         for name, target in [("drive.bag", "drive.bag"), ("slam_map.pcd", "map.pcd")]:
             (cls.data / name).symlink_to(drive / target)
@@ -178,6 +179,11 @@ class Readme(unittest.TestCase):
             self.assertTrue((self.user / "result" / f).exists(), f)
         self.assertIn("projector_type: MGRS",
                       (self.user / "result/autoware/map_projector_info.yaml").read_text())
+        shutil.rmtree(self.user / "result", ignore_errors=True)
+        out = self.run_typed("scripts/georeference.sh --bag drive.bag --keyframes keyframes/ "
+                             "--out result/")
+        self.assertIn("points of a keyframe dump rebuilt", out)
+        self.assertTrue((self.user / "result/map_georeferenced.pcd").exists())
         out = self.run_typed("scripts/georeference.sh --help")
         self.assertIn("usage: georeference", out)
 

@@ -9,7 +9,9 @@
 #include <filesystem>
 #include <limits>
 
+#include "flexcloud/io/atomic_file.h"
 #include "flexcloud/io/cloud_layout.h"
+#include "flexcloud/io/keyframes.h"
 #include "flexcloud/io/map_stream.h"
 #include "flexcloud/io/pcd_io.h"
 #include "flexcloud/warp/pose_rebuild.h"
@@ -277,6 +279,58 @@ TEST(PoseRebuild, TheStreamedFileIsRebuiltAndKeepsEveryOtherField) {
     }
     EXPECT_LT(worst, 3e-4) << (in_place ? "in place" : "pipeline");  // float32 at 2 km
   }
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Keyframes, TheDataTextRoundTripsAndBadOnesAreNamed) {
+  const Drive d;
+  const Pose p = d.result[7];
+  const Pose back = parseKeyframeData(keyframeDataText(p), "k/data");
+  EXPECT_NEAR(back.stamp, p.stamp, 1e-9);
+  EXPECT_LT((back.position - p.position).norm(), 1e-9);
+  EXPECT_LT(back.orientation.angularDistance(p.orientation), 1e-9);
+  // As hdl_graph_slam writes it: six digits, odom and accum_distance after the estimate.
+  const Pose h = parseKeyframeData(
+      "stamp 1317 500000000\nestimate\n0 -1 0 12.5\n1 0 0 -3\n0 0 1 0.25\n0 0 0 1\nodom\n"
+      "1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\naccum_distance 12.7\n",
+      "h/data");
+  EXPECT_DOUBLE_EQ(h.stamp, 1317.5);
+  EXPECT_LT((h.position - Eigen::Vector3d(12.5, -3.0, 0.25)).norm(), 1e-12);
+  EXPECT_NEAR(h.orientation.angularDistance(
+                  Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()))),
+              0.0, 1e-9);
+  EXPECT_EQ(test::errorOf([] { parseKeyframeData("estimate\n1 0 0 0\n", "a/data"); }),
+            "a/data: estimate: row 2 missing");
+  EXPECT_EQ(test::errorOf([] {
+              parseKeyframeData("stamp 1 0\nestimate\n2 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n",
+                                "b/data");
+            }),
+            "b/data: estimate is not a rigid transform (rotation off by 3.000000)");
+  EXPECT_EQ(test::errorOf([] { parseKeyframeData("odom\n", "c/data"); }),
+            "c/data: no 'stamp SEC NSEC' line");
+  EXPECT_EQ(test::errorOf([] { parseKeyframeData("stamp 1 x\n", "d/data"); }),
+            "d/data: stamp is not SEC NSEC: 'stamp 1 x'");
+}
+
+TEST(Keyframes, AFolderWithoutKeyframesOrWithTwoOfOneStampIsNamed) {
+  const std::filesystem::path dir = test::tempFolder("keyframes");
+  EXPECT_EQ(
+      test::errorOf([&] { readKeyframes(dir.string()); }),
+      dir.string() +
+          ": no keyframe (a subfolder with data and cloud.pcd, as hdl_graph_slam saves them)");
+  const Drive d;
+  for (const char* name : {"000000", "000001"}) {
+    std::filesystem::create_directories(dir / name);
+    writeTextFile((dir / name / "data").string(), keyframeDataText(d.slam[3]));
+    writePcdBinary((dir / name / "cloud.pcd").string(),
+                   cloudOf({{1.0, 2.0, 3.0}}, {0.0}, F::FLOAT64));
+  }
+  EXPECT_NE(test::errorOf([&] { readKeyframes(dir.string()); }).find("have the same stamp"),
+            std::string::npos);
+  writeTextFile((dir / "000001" / "data").string(), keyframeDataText(d.slam[4]));
+  const std::vector<Keyframe> k = readKeyframes(dir.string());
+  ASSERT_EQ(k.size(), 2u);
+  EXPECT_NEAR(k[1].pose.stamp, d.slam[4].stamp, 1e-9);
   std::filesystem::remove_all(dir);
 }
 

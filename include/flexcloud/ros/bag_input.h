@@ -22,6 +22,8 @@ struct BagTopics {
   /// A given fix or odom topic that is not in the bag falls back to the bag's only topic of a
   /// fitting type (the node's default names), instead of an error (names the user typed).
   bool fall_back_by_type = false;
+  /// The fixes alone (the poses come from elsewhere: a keyframe dump): no odometry topic read.
+  bool fixes_only = false;
 };
 
 struct BagSummary {

@@ -3,6 +3,9 @@
 
 #include <pcl/PCLPointCloud2.h>
 
+#include <utility>
+#include <vector>
+
 #include "flexcloud/sim/drive_simulator.h"
 
 namespace flexcloud::sim {
@@ -12,6 +15,10 @@ namespace flexcloud::sim {
 /// saw the point, on the odometry's clock), as a LiDAR SLAM saves a map whose points know their
 /// pose.
 pcl::PCLPointCloud2 slamCloud(const SimMap& map, bool time = false);
+
+/// The map as a keyframe SLAM saves it: per pose of the drive that saw points, that pose (SLAM
+/// map frame) and its points in its own frame (the fields of slamCloud()), in the map's order.
+std::vector<std::pair<Pose, pcl::PCLPointCloud2>> keyframeClouds(const SimDrive& d);
 
 /// The truth: the same points in the same order, x y z as float64 in the true ENU frame of the
 /// simulator's datum, with the same other fields.

@@ -93,4 +93,13 @@ WarpStats rebuildPoints(std::uint8_t* data, const XyzLayout& layout, const PoseR
                         int threads, const std::string& name = "map",
                         const CancelToken& cancel = neverCancelled(), const SigmaSink& sigmas = {});
 
+/// Moves the n points of one keyframe's cloud (a SLAM's keyframe dump), given in the keyframe's
+/// own frame: each placed by `pose` (the keyframe's pose in the SLAM's map frame) and moved with
+/// the correction at `stamp` (rigidly where that names no pose: every point counted as
+/// `outside`), on one thread. The sample holds a few of its points in the map frame. With
+/// `sigmas` set, as rebuildPoints().
+WarpStats rebuildKeyframe(std::uint8_t* data, const XyzLayout& layout,
+                          const Eigen::Isometry3d& pose, double stamp,
+                          const PoseCorrections& corrections, const SigmaSink& sigmas = {});
+
 }  // namespace flexcloud

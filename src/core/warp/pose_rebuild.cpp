@@ -265,4 +265,42 @@ WarpStats rebuildPoints(std::uint8_t* data, const XyzLayout& layout, const PoseR
   return total;
 }
 
+WarpStats rebuildKeyframe(std::uint8_t* data, const XyzLayout& layout,
+                          const Eigen::Isometry3d& pose, double stamp,
+                          const PoseCorrections& corrections, const SigmaSink& sigmas) {
+  WarpStats s;
+  std::size_t hint = 0;
+  Matrix34 c;
+  const bool named = corrections.atTime(stamp, hint, c);
+  if (!named) c = corrections.rigid().matrix().topRows<3>();
+  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+  m.topRows<3>() = c;
+  const Matrix34 moved = (m * pose.matrix()).topRows<3>();
+  std::unique_ptr<PointSigmaBatch> batch;
+  if (sigmas.field != nullptr) batch = std::make_unique<PointSigmaBatch>(sigmas);
+  const std::size_t n = layout.points;
+  const std::size_t stride = std::max<std::size_t>(1, n / 16);
+  constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+  for (std::size_t i = 0; i < n; ++i) {
+    std::uint8_t* pt = data + i * layout.point_step;
+    const Eigen::Vector3d p = layout.get(pt);
+    ++s.points;
+    if (!p.allFinite()) {
+      ++s.non_finite;
+      if (sigmas.field != nullptr) {
+        std::uint8_t* out = sigmas.out + i * sigmas.stride;
+        std::memcpy(out, &kNaN, sizeof(float));
+        std::memcpy(out + sizeof(float), &kNaN, sizeof(float));
+      }
+      continue;
+    }
+    if (i % stride == 0) s.sample.push_back(pose * p);
+    const Eigen::Vector3d q = moved.leftCols<3>() * p + moved.col(3);
+    layout.set(pt, q);
+    if (!named) ++s.outside;
+    if (batch) batch->add(q, sigmas.field->rigidTet(), i);
+  }
+  return s;
+}
+
 }  // namespace flexcloud
