@@ -113,6 +113,13 @@ BagSummary readBag(const std::string& path, const BagTopics& topics, DriveCollec
     } else if (!topics.map.empty()) {
       out.map_topic = resolve(path, types, topics.map, {kCloudType}, "map", "--map-topic", false);
     }
+    if (!topics.scans.empty() &&
+        !(topics.scans_if_any && types.count(absolute(topics.scans)) == 0)) {
+      out.scan_topic =
+          resolve(path, types, topics.scans, {kCloudType}, "scan", "--scan-topic", false);
+      if (out.scan_topic == out.map_topic) out.map_topic.clear();  // the scans are the map
+      read.push_back(out.scan_topic);
+    }
     if (!out.map_topic.empty()) read.push_back(out.map_topic);
     rosbag::View view(bag, rosbag::TopicQuery(read));
     const std::size_t total = view.size();
@@ -132,6 +139,11 @@ BagSummary readBag(const std::string& path, const BagTopics& topics, DriveCollec
           if (auto msg = m.instantiate<geometry_msgs::PoseStamped>()) collector.handlePose(*msg);
         } else if (lengthsFit(m, pathLengthsFit, path)) {
           if (auto msg = m.instantiate<nav_msgs::Path>()) collector.handlePath(*msg);
+        }
+      } else if (topic == out.scan_topic && lengthsFit(m, cloudLengthsFit, path)) {
+        if (auto msg = m.instantiate<sensor_msgs::PointCloud2>()) {
+          collector.handleScan(*msg, path + ": " + topic);
+          ++out.scans;
         }
       } else if (topic == out.map_topic && map != nullptr && lengthsFit(m, cloudLengthsFit, path)) {
         if (auto msg = m.instantiate<sensor_msgs::PointCloud2>()) {

@@ -52,6 +52,20 @@ void DriveCollector::handlePath(const nav_msgs::Path& msg) {
   data_.poses = std::move(t);
 }
 
+void DriveCollector::handleScan(const sensor_msgs::PointCloud2& msg, const std::string& topic) {
+  pcl::PCLPointCloud2 c;
+  ros_conv::fromCloudMsg(msg, c);
+  GuardedLock lock(mutex_);
+  scans_.add(c, msg.header.stamp.toSec(), topic);
+  scan_frame_ = msg.header.frame_id;
+}
+
+DriveCollector::Scans DriveCollector::scans() const {
+  GuardedLock lock(mutex_);
+  if (scans_.scans() == 0) return {};
+  return {std::make_shared<const pcl::PCLPointCloud2>(scans_.cloud()), scan_frame_, scans_.scans()};
+}
+
 DriveInput DriveCollector::snapshot() const {
   GuardedLock lock(mutex_);
   return data_;
@@ -95,6 +109,8 @@ std::pair<std::size_t, std::size_t> DriveCollector::clear() {
   fix_frame_.clear();
   body_frame_.clear();
   evicted_ = 0;
+  scans_.clear();
+  scan_frame_.clear();
   return cleared;
 }
 

@@ -183,6 +183,19 @@ void GeoreferenceNode::subscribe(const NodeParams& p) {
   }
   if (p.map_file.empty()) {
     subscribers_.push_back(nh_.subscribe("map", 1, &GeoreferenceNode::onMap, this));
+    const std::string scans = nh_.resolveName("scans");
+    subscribers_.push_back(nh_.subscribe<sensor_msgs::PointCloud2>(
+        "scans", q,
+        boost::function<void(const sensor_msgs::PointCloud2ConstPtr&)>(
+            [this, scans](const sensor_msgs::PointCloud2ConstPtr& m) { onScan(*m, scans); })));
+  }
+}
+
+void GeoreferenceNode::onScan(const sensor_msgs::PointCloud2& msg, const std::string& topic) {
+  try {
+    collector_.handleScan(msg, topic);
+  } catch (const Error& e) {  // a scan of other fields: named, the scans so far kept
+    ROS_ERROR_THROTTLE(10.0, "%s: %s", name_.c_str(), e.what());
   }
 }
 
@@ -215,6 +228,8 @@ void GeoreferenceNode::readBag() {
   if (p.map_file.empty()) {
     topics.map = nh_.resolveName("map");
     topics.map_if_any = true;
+    topics.scans = nh_.resolveName("scans");  // registered scans, where the bag has them
+    topics.scans_if_any = true;
   }
   std::string error;
   try {
@@ -494,9 +509,24 @@ sensor_msgs::PointCloud2ConstPtr GeoreferenceNode::warpMap(const NodeParams& par
     GuardedLock lock(mutex_);
     map = map_;
   }
+  std::string name = params.map_file.empty() ? nh_.resolveName("map") : params.map_file;
+  std::string wanted = params.core.map_pose_field;
+  if (const DriveCollector::Scans scans = collector_.scans();
+      scans.cloud && params.map_file.empty()) {
+    // Registered scans make the map: each point with its scan's stamp, rebuilt from its pose.
+    name = nh_.resolveName("scans");
+    const std::string poses = collector_.mapFrame();
+    if (!poses.empty() && !scans.frame.empty() && scans.frame != poses) {
+      throw Error(name + ": the scans are in frame '" + scans.frame + "', the poses in '" + poses +
+                  "': only registered scans (in the poses' frame) make the map");
+    }
+    sensor_msgs::PointCloud2Ptr msg(new sensor_msgs::PointCloud2);
+    ros_conv::toCloudMsg(*scans.cloud, poses.empty() ? "map" : poses, *msg);
+    map = msg;
+    wanted = kScanTimeField;
+  }
   if (!map) return nullptr;
   const auto t0 = std::chrono::steady_clock::now();
-  const std::string name = params.map_file.empty() ? nh_.resolveName("map") : params.map_file;
   info.input = name;
   // A map message whose data does not hold its points is named before any copy of it.
   XyzLayout layout = ros_conv::xyzLayout(*map, name);
@@ -515,7 +545,7 @@ sensor_msgs::PointCloud2ConstPtr GeoreferenceNode::warpMap(const NodeParams& par
   const PoseCorrections corrections(r.poses, resultPoses(r), r.T_enu_map);
   const std::size_t points = static_cast<std::size_t>(map->width) * map->height;
   const MapMotion motion = mapMotion(
-      ros_conv::pclFields(*map), params.core.map_pose_field, corrections,
+      ros_conv::pclFields(*map), wanted, corrections,
       [&](const PointPoseField& f) {
         return fieldValues(map->data.data(), map->point_step, points, f);
       },

@@ -54,7 +54,11 @@ pcl::PCLPointCloud2 build(const SimMap& map, bool truth, bool time) {
 
 }  // namespace
 
-std::vector<std::pair<Pose, pcl::PCLPointCloud2>> keyframeClouds(const SimDrive& d) {
+namespace {
+
+/// The map's scans that a pose of the drive saw, in the map's order: that pose and its points,
+/// in the pose's own frame where `body`, else in the map frame.
+std::vector<std::pair<Pose, pcl::PCLPointCloud2>> scans(const SimDrive& d, bool body) {
   std::vector<std::pair<Pose, pcl::PCLPointCloud2>> out;
   const pcl::PCLPointCloud2 all = slamCloud(d.map);
   std::size_t k = 0;  // the pose of the scan at hand (the map is stored scan by scan)
@@ -66,15 +70,19 @@ std::vector<std::pair<Pose, pcl::PCLPointCloud2>> keyframeClouds(const SimDrive&
       Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
       pose.linear() = d.slam[k].orientation.toRotationMatrix();
       pose.translation() = d.slam[k].position;
-      pcl::PCLPointCloud2 c = all;
+      pcl::PCLPointCloud2 c;
+      c.fields = all.fields;
+      c.point_step = all.point_step;
+      c.height = 1;
+      c.is_dense = all.is_dense;
       c.width = static_cast<std::uint32_t>(end - i);
       c.row_step = c.point_step * c.width;
       c.data.assign(all.data.begin() + static_cast<std::ptrdiff_t>(i * all.point_step),
                     all.data.begin() + static_cast<std::ptrdiff_t>(end * all.point_step));
-      for (std::size_t j = i; j < end; ++j) {
-        const Eigen::Vector3d body = pose.inverse() * d.map.slam[j];
+      for (std::size_t j = i; body && j < end; ++j) {
+        const Eigen::Vector3d p = pose.inverse() * d.map.slam[j];
         for (int a = 0; a < 3; ++a) {
-          put<float>(c.data.data() + (j - i) * c.point_step + 4 * a, static_cast<float>(body(a)));
+          put<float>(c.data.data() + (j - i) * c.point_step + 4 * a, static_cast<float>(p(a)));
         }
       }
       out.emplace_back(d.slam[k], std::move(c));
@@ -82,6 +90,16 @@ std::vector<std::pair<Pose, pcl::PCLPointCloud2>> keyframeClouds(const SimDrive&
     i = end;
   }
   return out;
+}
+
+}  // namespace
+
+std::vector<std::pair<Pose, pcl::PCLPointCloud2>> keyframeClouds(const SimDrive& d) {
+  return scans(d, true);
+}
+
+std::vector<std::pair<Pose, pcl::PCLPointCloud2>> registeredScans(const SimDrive& d) {
+  return scans(d, false);
 }
 
 pcl::PCLPointCloud2 slamCloud(const SimMap& map, bool time) { return build(map, false, time); }

@@ -4,6 +4,7 @@
 // unless the run completes.
 
 #include <ros/time.h>
+#include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
@@ -26,10 +27,13 @@
 #include "flexcloud/io/memory.h"
 #include "flexcloud/io/outputs.h"
 #include "flexcloud/io/pcd_header.h"
+#include "flexcloud/io/pcd_io.h"
 #include "flexcloud/io/pcd_stream.h"
 #include "flexcloud/io/report_plot.h"
+#include "flexcloud/io/scan_map.h"
 #include "flexcloud/io/text_io.h"
 #include "flexcloud/ros/bag_input.h"
+#include "flexcloud/ros/drive_collector.h"
 #include "flexcloud/ros/node_params.h"
 #include "flexcloud/uncertainty/point_sigma.h"
 #include "flexcloud/warp/cloud_warp.h"
@@ -46,6 +50,9 @@ INPUT, one of:
                           geometry_msgs/PoseStamped, or nav_msgs/Path: the last one is used)
     --fix-topic T         NavSatFix topic (default: the bag's only one)
     --odom-topic T        pose topic (default: the bag's only Odometry/PoseStamped/Path one)
+    --scan-topic T        instead of --map: the SLAM's registered scans (PointCloud2 in the
+                          poses' frame, as LIO-SAM and FAST-LIO publish them) make the map,
+                          each point rebuilt with its scan's pose
   --gnss FILE --poses FILE
                           GNSS "stamp lat lon alt [std_e std_n std_u]" and TUM poses
                           "stamp x y z qx qy qz qw"; separated by spaces, commas,
@@ -104,6 +111,7 @@ options:
 
 struct Options {
   std::string bag, fix_topic, odom_topic, gnss, poses, map, truth, config, to_ll, keyframes;
+  std::string scan_topic;
   std::optional<Datum> truth_datum;  ///< the datum the truth is in (--truth-datum, truth.yaml)
   std::string out = "flexcloud_out";
   bool gnss_local = false;
@@ -196,6 +204,8 @@ Options parseOptions(int argc, char** argv) {
       o.fix_topic = a.text(f);
     } else if (f == "--odom-topic") {
       o.odom_topic = a.text(f);
+    } else if (f == "--scan-topic") {
+      o.scan_topic = a.text(f);
     } else if (f == "--gnss") {
       o.gnss = a.text(f);
     } else if (f == "--poses") {
@@ -250,6 +260,11 @@ Options parseOptions(int argc, char** argv) {
   } else if (o.bag.empty() && (o.gnss.empty() || o.poses.empty())) {
     throw UsageError("give --bag FILE, or both --gnss FILE and --poses FILE");
   }
+  if (!o.scan_topic.empty() && (o.bag.empty() || !o.map.empty() || !o.keyframes.empty())) {
+    throw UsageError(
+        "--scan-topic reads the map from the bag's scans: with --bag, no --map or "
+        "--keyframes");
+  }
   if (!o.truth.empty() && o.map.empty()) throw UsageError("--truth needs --map");
   checkInputFiles(o);
   if (!o.truth.empty() && !o.truth_datum) o.truth_datum = datumBeside(o.truth);
@@ -283,8 +298,45 @@ class Progress {
 
 void checkCancel() { g_interrupt.check("georeference"); }
 
+/// A file in the temporary folder, removed with this object ("" names none).
+class TempFile {
+ public:
+  explicit TempFile(const std::string& name)
+      : path_(name.empty() ? ""
+                           : (std::filesystem::temp_directory_path() /
+                              ("flexcloud_" + name + "_" + std::to_string(::getpid()) + ".pcd"))
+                                 .string()) {}
+  ~TempFile() {
+    std::error_code ec;
+    if (!path_.empty()) std::filesystem::remove(path_, ec);
+  }
+  TempFile(const TempFile&) = delete;
+  TempFile& operator=(const TempFile&) = delete;
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+};
+
+/// The map the bag's registered scans make; throws Error where there is none, or where they
+/// are not in the poses' frame.
+std::shared_ptr<const pcl::PCLPointCloud2> bagScans(const Options& o, const BagSummary& s,
+                                                    const DriveCollector& collector) {
+  const DriveCollector::Scans scans = collector.scans();
+  if (!scans.cloud) throw Error(o.bag + ": no scan on " + s.scan_topic);
+  const std::string poses = collector.mapFrame();
+  if (!poses.empty() && !scans.frame.empty() && scans.frame != poses) {
+    throw Error(o.bag + ": the scans on " + s.scan_topic + " are in frame '" + scans.frame +
+                "', the poses in '" + poses +
+                "': only registered scans (in the poses' frame) make the map");
+  }
+  return scans.cloud;
+}
+
+/// The drive; with --scan-topic, `scans` gets the map the bag's registered scans make.
 DriveInput loadDrive(const Options& o, const Progress& log, std::string& map_frame,
-                     const std::vector<Keyframe>& keyframes) {
+                     const std::vector<Keyframe>& keyframes,
+                     std::shared_ptr<const pcl::PCLPointCloud2>* scans = nullptr) {
   if (!keyframes.empty()) {
     log.say("  " + std::to_string(keyframes.size()) + " keyframes in " + o.keyframes);
     DriveInput in = loadDrive(o, log, map_frame, {});  // the fixes (a bag's odometry unread)
@@ -298,6 +350,7 @@ DriveInput loadDrive(const Options& o, const Progress& log, std::string& map_fra
     topics.fix = o.fix_topic;
     topics.odom = o.odom_topic;
     topics.fixes_only = !o.keyframes.empty();
+    topics.scans = o.scan_topic;
     const BagSummary s = readBag(o.bag, topics, collector, nullptr, [&](double f) {
       log.say("  bag " + std::to_string(static_cast<int>(100 * f)) + "%");
     });
@@ -306,6 +359,7 @@ DriveInput loadDrive(const Options& o, const Progress& log, std::string& map_fra
                  ? std::string()
                  : ", " + std::to_string(s.poses) + " " + s.odom_type + " on " + s.odom_topic));
     map_frame = collector.mapFrame().empty() ? "map" : collector.mapFrame();
+    if (!o.scan_topic.empty() && scans != nullptr) *scans = bagScans(o, s, collector);
     return collector.snapshot();
   }
   DriveInput in;
@@ -457,10 +511,14 @@ void checkTruthFrame(const Options& o, const GeoreferenceResult& r) {
 }
 
 /// The writer that streams a map (any encoding) through the warp into the output.
+/// `map` is the file to read (--map, or the bag's scans gathered into one), `pose_field` the
+/// field that names each point's pose (map_pose_field, or the scans' scan_time).
 MapWriter streamedMap(const Options& o, const Params& params, const GeoreferenceResult& r,
-                      const Progress& log, MapInfo& info, MapPrecopy* precopy) {
-  return [&o, &params, &r, &log, &info, precopy](const std::string& path) {
-    log.say("warping " + o.map + " (streamed)");
+                      const Progress& log, MapInfo& info, MapPrecopy* precopy,
+                      const std::string& map, const std::string& pose_field,
+                      const std::string& label) {
+  return [&o, &params, &r, &log, &info, precopy, map, pose_field, label](const std::string& path) {
+    log.say("warping " + label + " (streamed)");
     MapStreamOptions so;
     so.threads = params.threads;
     so.truth = o.truth;
@@ -469,11 +527,12 @@ MapWriter streamedMap(const Options& o, const Params& params, const Georeference
     so.precopy = precopy;
     const PoseCorrections corrections(r.poses, resultPoses(r), r.T_enu_map);
     so.corrections = &corrections;
-    so.pose_field = params.map_pose_field;
+    so.pose_field = pose_field;
     std::optional<PointSigmaField> sigmas;
     if (params.point_sigma)
       so.point_sigma = &sigmas.emplace(r.rubbersheet, r.sigma, *r.sheet, pointSigmaModel(params));
-    warpPcdFile(o.map, path, *r.sheet, so, info);
+    warpPcdFile(map, path, *r.sheet, so, info);
+    info.input = label;
   };
 }
 
@@ -501,11 +560,15 @@ int run(int argc, char** argv) {
   if (params.report_png) context.plot = &plot.emplace(findPlotScript());
   const std::vector<Keyframe> keyframes =
       o.keyframes.empty() ? std::vector<Keyframe>() : readKeyframes(o.keyframes);
-  const DriveInput drive = loadDrive(o, log, context.frames.map, keyframes);
+  std::shared_ptr<const pcl::PCLPointCloud2> scans;
+  const DriveInput drive = loadDrive(o, log, context.frames.map, keyframes, &scans);
   checkCancel();
   MapInfo info;
   const bool map_file = checkMap(o, params.point_sigma, info);
-  const bool has_map = map_file || !keyframes.empty();
+  // The scans' map goes through the same streamed warp as a map file, from a temporary copy.
+  const TempFile scan_pcd(scans ? "scans" : "");
+  if (scans) writePcdBinary(scan_pcd.path(), *scans);
+  const bool has_map = map_file || !keyframes.empty() || scans;
   checkCancel();
   // A binary map's body starts on its way into the output now, beside the georeferencing.
   // (With point sigmas every point grows: the body is written by the warp.)
@@ -522,9 +585,13 @@ int run(int argc, char** argv) {
   checkDegraded(r, params, nullptr, context.frames.map);  // before the map: it costs nothing
   checkCancel();
 
-  const MapWriter write_map = !keyframes.empty() ? keyframeMap(o, params, r, log, keyframes, info)
-                              : has_map ? streamedMap(o, params, r, log, info, precopy.get())
-                                        : MapWriter();
+  const MapWriter write_map =
+      !keyframes.empty() ? keyframeMap(o, params, r, log, keyframes, info)
+      : scans ? streamedMap(o, params, r, log, info, nullptr, scan_pcd.path(), kScanTimeField,
+                            "the scans on " + o.scan_topic)
+      : has_map
+          ? streamedMap(o, params, r, log, info, precopy.get(), o.map, params.map_pose_field, o.map)
+          : MapWriter();
   checkCancel();
   log.say("writing " + o.out);
   context.map = has_map ? &info : nullptr;

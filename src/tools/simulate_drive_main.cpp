@@ -56,6 +56,8 @@ constexpr const char* kUsage = R"(usage: simulate_drive [options]
   --map-topic             also put the SLAM map into the bag on /map (PointCloud2)
   --map-time              give every map point a float64 field time: the odometry stamp of
                           the scan that saw it (georeference then rebuilds the map from it)
+  --scans                 also put the map into the bag as the SLAM's registered scans on
+                          /scans (PointCloud2 in the map frame, one per pose, its stamp)
   --keyframes             also write the map as a keyframe SLAM's dump: keyframes/NNNNNN/data
                           (stamp, pose) and cloud.pcd (its points in its own frame), for
                           georeference --keyframes
@@ -71,6 +73,7 @@ struct Options {
   bool map_topic = false;
   bool map_time = false;
   bool keyframes = false;
+  bool scans = false;
 };
 
 Options parse(int argc, char** argv) {
@@ -138,6 +141,8 @@ Options parse(int argc, char** argv) {
       o.map_time = true;
     } else if (f == "--keyframes") {
       o.keyframes = true;
+    } else if (f == "--scans") {
+      o.scans = true;
     } else {
       return false;
     }
@@ -169,6 +174,13 @@ void writeBag(const std::string& path, const sim::SimDrive& d, const Options& o,
     if (o.odom_type == "path") {
       const auto path_msg = ros_conv::toPath(d.slam, "map");
       bag.write(o.odom_topic, path_msg.header.stamp, path_msg);
+    }
+    for (const auto& [pose, scan] :
+         o.scans ? sim::registeredScans(d) : decltype(sim::registeredScans(d)){}) {
+      sensor_msgs::PointCloud2 msg;
+      ros_conv::toCloudMsg(scan, "map", msg);
+      msg.header.stamp = ros_conv::toTime(pose.stamp);
+      bag.write("/scans", msg.header.stamp, msg);
     }
     if (map != nullptr) {
       sensor_msgs::PointCloud2 msg;

@@ -533,6 +533,39 @@ TEST_F(Live, AMapWhosePointsKnowTheirTimeIsRebuiltFromTheirPoses) {
   EXPECT_GE(share, 90.0);
 }
 
+/// The SLAM's registered scans on `scans` (one PointCloud2 a pose, in the map frame): the map
+/// is made of them, each point rebuilt with its scan's pose, and lies on its truth; ~reset
+/// forgets them with the drive.
+TEST_F(Live, RegisteredScansMakeTheMapRebuiltFromTheirPoses) {
+  ros::NodeHandle nh;
+  ros::Publisher scans = nh.advertise<Cloud>("/scans", 10000);
+  ASSERT_TRUE(subscribed({&scans}, 20.0));
+  publishDrive();
+  std::size_t k = 0;
+  for (const auto& [pose, scan] : sim::registeredScans(*drive_)) {
+    Cloud msg;
+    ros_conv::toCloudMsg(scan, "map", msg);
+    msg.header.stamp = ros_conv::toTime(pose.stamp);
+    scans.publish(msg);
+    if (++k % 500 == 0) ros::WallDuration(0.05).sleep();
+  }
+  const auto r = callUntil([this](const flexcloud::Georeference::Response& a) {
+    return a.success && a.map_pose_field == "scan_time" && a.map_points == drive_->map.slam.size();
+  });
+  ASSERT_TRUE(r.success) << r.message;
+  EXPECT_EQ(r.map_pose_field, "scan_time");
+  EXPECT_EQ(r.map_points, drive_->map.slam.size());
+  EXPECT_EQ(r.points_outside, 0u);
+  const ros::Time before = ros::Time::now();
+  ASSERT_TRUE(call().success);
+  const auto map = mapAfter(before, 20.0);
+  ASSERT_TRUE(map);
+  const ErrorStats e = againstTruth(*map, sim::truthCloud(drive_->map));
+  std::printf("live, registered scans: map vs truth RMSE %.3f m, MAX %.3f m\n", e.rmse, e.max);
+  EXPECT_LE(e.rmse, 0.1);
+  reset();  // the scans go with the drive: the next test's map is the map topic's again
+}
+
 /// A map message whose data holds fewer bytes than its points need (point_sigma is on in
 /// live.test: the map is widened for the sigmas): the call fails naming the topic and the sizes,
 /// and the node goes on with the next good map.

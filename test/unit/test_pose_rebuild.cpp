@@ -14,6 +14,7 @@
 #include "flexcloud/io/keyframes.h"
 #include "flexcloud/io/map_stream.h"
 #include "flexcloud/io/pcd_io.h"
+#include "flexcloud/io/scan_map.h"
 #include "flexcloud/warp/pose_rebuild.h"
 #include "test_util.h"
 
@@ -332,6 +333,39 @@ TEST(Keyframes, AFolderWithoutKeyframesOrWithTwoOfOneStampIsNamed) {
   ASSERT_EQ(k.size(), 2u);
   EXPECT_NEAR(k[1].pose.stamp, d.slam[4].stamp, 1e-9);
   std::filesystem::remove_all(dir);
+}
+
+TEST(ScanMap, RegisteredScansBecomeOneMapWithTheirStamps) {
+  ScanMap m;
+  const pcl::PCLPointCloud2 a = cloudOf({{1.0, 2.0, 3.0}, {4.0, 5.0, 6.0}}, {0.5, 0.5}, F::FLOAT64);
+  const pcl::PCLPointCloud2 b = cloudOf({{7.0, 8.0, 9.0}}, {0.7}, F::FLOAT64);
+  m.add(a, 100.0, "/scans");
+  m.add(b, 100.1, "/scans");
+  EXPECT_EQ(m.scans(), 2u);
+  const pcl::PCLPointCloud2 c = m.cloud();
+  ASSERT_EQ(c.width * c.height, 3u);
+  EXPECT_EQ(c.fields.back().name, kScanTimeField);
+  EXPECT_EQ(c.point_step, a.point_step + 8);
+  const auto pose = pointPoseField(c.fields, kScanTimeField, "scans");
+  ASSERT_TRUE(pose);
+  EXPECT_DOUBLE_EQ(pose->read(c.data.data()), 100.0);
+  EXPECT_DOUBLE_EQ(pose->read(c.data.data() + 2 * c.point_step), 100.1);
+  EXPECT_LT(
+      (xyzLayout(c, "scans").get(c.data.data() + 2 * c.point_step) - Eigen::Vector3d(7.0, 8.0, 9.0))
+          .norm(),
+      1e-12);
+  // Every other field travels with its point (the scan's own time here).
+  double own = 0.0;
+  std::memcpy(&own, c.data.data() + c.point_step + 24, 8);
+  EXPECT_DOUBLE_EQ(own, 0.5);
+  const pcl::PCLPointCloud2 other =
+      test::packedCloud({{"x", F::FLOAT32}, {"y", F::FLOAT32}, {"z", F::FLOAT32}}, 1);
+  EXPECT_EQ(test::errorOf([&] { m.add(other, 100.2, "/scans"); }),
+            "/scans: a scan's fields differ from those of the first scan");
+  m.clear();
+  EXPECT_EQ(m.scans(), 0u);
+  m.add(other, 100.2, "/scans");  // a new first scan after clear()
+  EXPECT_EQ(m.cloud().width, 1u);
 }
 
 }  // namespace

@@ -24,6 +24,11 @@ struct BagTopics {
   bool fall_back_by_type = false;
   /// The fixes alone (the poses come from elsewhere: a keyframe dump): no odometry topic read.
   bool fixes_only = false;
+  /// Registered scans (sensor_msgs/PointCloud2 in the poses' frame) into the collector's scan
+  /// map: read where the bag has this topic; a topic the bag lacks is an error unless
+  /// scans_if_any (the node's default name).
+  std::string scans;
+  bool scans_if_any = false;
 };
 
 struct BagSummary {
@@ -34,6 +39,8 @@ struct BagSummary {
   std::size_t fixes = 0;
   std::size_t poses = 0;  ///< pose messages (a Path counts once)
   std::size_t maps = 0;
+  std::string scan_topic;  ///< empty: none read
+  std::size_t scans = 0;
 };
 
 /// Plays the bag into the collector (and the latest map cloud into *map when map != nullptr and

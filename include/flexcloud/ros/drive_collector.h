@@ -6,11 +6,14 @@
 #include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
 #include <sensor_msgs/NavSatFix.h>
+#include <sensor_msgs/PointCloud2.h>
 
+#include <memory>
 #include <string>
 #include <utility>
 
 #include "flexcloud/georeference.h"
+#include "flexcloud/io/scan_map.h"
 #include "flexcloud/ros/guarded_mutex.h"
 
 namespace flexcloud {
@@ -28,6 +31,17 @@ class DriveCollector {
   void handlePose(const geometry_msgs::PoseStamped& msg);
   /// A SLAM back end's optimized path: it replaces every pose collected so far.
   void handlePath(const nav_msgs::Path& msg);
+  /// A registered scan (its points in the SLAM's map frame), stamped with its scan's instant:
+  /// kept in the scan map (scan_map.h). Throws Error naming `topic` for a scan whose fields
+  /// differ from the first one's.
+  void handleScan(const sensor_msgs::PointCloud2& msg, const std::string& topic);
+  /// The map of the scans collected so far (none: empty) and the frame they came in.
+  struct Scans {
+    std::shared_ptr<const pcl::PCLPointCloud2> cloud;
+    std::string frame;
+    std::size_t count = 0;
+  };
+  Scans scans() const;
 
   /// A copy of everything collected (the pipeline runs on it while collection goes on).
   DriveInput snapshot() const;
@@ -41,7 +55,7 @@ class DriveCollector {
   std::size_t poseCount() const;
   /// Messages dropped to keep memory bounded.
   std::size_t evicted() const;
-  /// Forgets everything collected; returns how many fixes and poses that was.
+  /// Forgets everything collected (the scans too); returns how many fixes and poses that was.
   std::pair<std::size_t, std::size_t> clear();
 
  private:
@@ -56,6 +70,8 @@ class DriveCollector {
   std::string body_frame_ FLEXCLOUD_GUARDED_BY(mutex_);
   std::size_t max_ FLEXCLOUD_GUARDED_BY(mutex_);
   std::size_t evicted_ FLEXCLOUD_GUARDED_BY(mutex_) = 0;
+  ScanMap scans_ FLEXCLOUD_GUARDED_BY(mutex_);
+  std::string scan_frame_ FLEXCLOUD_GUARDED_BY(mutex_);
 };
 
 }  // namespace flexcloud

@@ -75,6 +75,8 @@ class GeoreferenceNode {
   void subscribe(const NodeParams& p);
   void startBagRead();
   void onMap(const sensor_msgs::PointCloud2ConstPtr& msg);
+  /// A registered scan into the collector's scan map (a scan of other fields is logged).
+  void onScan(const sensor_msgs::PointCloud2& msg, const std::string& topic);
   void onReconfigure(GeoreferenceConfig& config, uint32_t level);
   void pushConfig(const NodeParams& p);
 

@@ -20,6 +20,10 @@ pcl::PCLPointCloud2 slamCloud(const SimMap& map, bool time = false);
 /// map frame) and its points in its own frame (the fields of slamCloud()), in the map's order.
 std::vector<std::pair<Pose, pcl::PCLPointCloud2>> keyframeClouds(const SimDrive& d);
 
+/// The map as a LiDAR SLAM publishes its registered scans: per pose of the drive that saw
+/// points, that pose and its points in the SLAM's map frame (slamCloud()'s rows of that scan).
+std::vector<std::pair<Pose, pcl::PCLPointCloud2>> registeredScans(const SimDrive& d);
+
 /// The truth: the same points in the same order, x y z as float64 in the true ENU frame of the
 /// simulator's datum, with the same other fields.
 pcl::PCLPointCloud2 truthCloud(const SimMap& map);
