@@ -1,10 +1,15 @@
 #include "flexcloud/io/scan_map.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
+#include <limits>
+#include <optional>
 
+#include "flexcloud/input/trajectory.h"
 #include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/types.h"
+#include "flexcloud/warp/pose_rebuild.h"
 
 namespace flexcloud {
 namespace {
@@ -62,6 +67,40 @@ void ScanMap::clear() {
   data_.clear();
   data_.shrink_to_fit();
   scans_ = 0;
+}
+
+std::size_t placeBodyScans(pcl::PCLPointCloud2& cloud, const std::vector<Pose>& slam) {
+  const XyzLayout layout = xyzLayout(cloud, "scans");
+  const std::optional<PointPoseField> time = pointPoseField(cloud.fields, kScanTimeField, "scans");
+  std::size_t beyond = 0;
+  double at = std::numeric_limits<double>::quiet_NaN();
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  bool far = false;
+  for (std::size_t i = 0; i < layout.points; ++i) {
+    std::uint8_t* row = cloud.data.data() + i * layout.point_step;
+    const double t = time->read(row);
+    if (!(t == at)) {  // a scan's points share its stamp: one pose a scan
+      at = t;
+      const double lo = slam.front().stamp, hi = slam.back().stamp;
+      far = !(t >= lo - PoseCorrections::kReach && t <= hi + PoseCorrections::kReach);
+      const std::optional<Pose> p = poseAt(slam, std::clamp(std::isfinite(t) ? t : lo, lo, hi));
+      pose.linear() = p->orientation.normalized().toRotationMatrix();
+      pose.translation() = p->position;
+    }
+    const Eigen::Vector3d q = layout.get(row);
+    if (q.allFinite()) layout.set(row, pose * q);
+    beyond += far ? 1 : 0;
+  }
+  return beyond;
+}
+
+std::string scanFrameKind(const std::string& scans, const std::string& poses,
+                          const std::string& body, const std::string& name) {
+  if (scans.empty() || poses.empty() || scans == poses) return "";
+  if (body.empty() || scans == body) return "body";
+  throw Error(name + ": the scans are in frame '" + scans + "', neither the poses' ('" + poses +
+              "': registered scans) nor their body's ('" + body +
+              "': scans as the LiDAR saw them)");
 }
 
 }  // namespace flexcloud

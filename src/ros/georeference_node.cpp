@@ -516,12 +516,12 @@ sensor_msgs::PointCloud2ConstPtr GeoreferenceNode::warpMap(const NodeParams& par
     // Registered scans make the map: each point with its scan's stamp, rebuilt from its pose.
     name = nh_.resolveName("scans");
     const std::string poses = collector_.mapFrame();
-    if (!poses.empty() && !scans.frame.empty() && scans.frame != poses) {
-      throw Error(name + ": the scans are in frame '" + scans.frame + "', the poses in '" + poses +
-                  "': only registered scans (in the poses' frame) make the map");
+    pcl::PCLPointCloud2 cloud = *scans.cloud;
+    if (scanFrameKind(scans.frame, poses, collector_.bodyFrame(), name) == "body") {
+      placeBodyScans(cloud, r.poses);  // as the LiDAR saw them: placed by the SLAM's poses
     }
     sensor_msgs::PointCloud2Ptr msg(new sensor_msgs::PointCloud2);
-    ros_conv::toCloudMsg(*scans.cloud, poses.empty() ? "map" : poses, *msg);
+    ros_conv::toCloudMsg(cloud, poses.empty() ? "map" : poses, *msg);
     map = msg;
     wanted = kScanTimeField;
   }

@@ -318,25 +318,32 @@ class TempFile {
   std::string path_;
 };
 
-/// The map the bag's registered scans make; throws Error where there is none, or where they
-/// are not in the poses' frame.
-std::shared_ptr<const pcl::PCLPointCloud2> bagScans(const Options& o, const BagSummary& s,
-                                                    const DriveCollector& collector) {
+/// The bag's scans, gathered into one map (scan_map.h).
+struct BagScans {
+  std::shared_ptr<const pcl::PCLPointCloud2> cloud;
+  bool body = false;  ///< in the body's frame: placed by the SLAM's poses before the rebuild
+};
+
+/// The map the bag's scans make; throws Error where there is none, or where they are in neither
+/// the poses' frame nor their body's.
+BagScans bagScans(const Options& o, const BagSummary& s, const DriveCollector& collector) {
   const DriveCollector::Scans scans = collector.scans();
   if (!scans.cloud) throw Error(o.bag + ": no scan on " + s.scan_topic);
-  const std::string poses = collector.mapFrame();
-  if (!poses.empty() && !scans.frame.empty() && scans.frame != poses) {
-    throw Error(o.bag + ": the scans on " + s.scan_topic + " are in frame '" + scans.frame +
-                "', the poses in '" + poses +
-                "': only registered scans (in the poses' frame) make the map");
-  }
-  return scans.cloud;
+  const std::string kind = scanFrameKind(scans.frame, collector.mapFrame(), collector.bodyFrame(),
+                                         o.bag + ": " + s.scan_topic);
+  return {scans.cloud, kind == "body"};
+}
+
+/// The scans' map in the SLAM's map frame.
+pcl::PCLPointCloud2 scanMapOf(const BagScans& scans, const GeoreferenceResult& r) {
+  pcl::PCLPointCloud2 cloud = *scans.cloud;
+  if (scans.body) placeBodyScans(cloud, r.poses);
+  return cloud;
 }
 
 /// The drive; with --scan-topic, `scans` gets the map the bag's registered scans make.
 DriveInput loadDrive(const Options& o, const Progress& log, std::string& map_frame,
-                     const std::vector<Keyframe>& keyframes,
-                     std::shared_ptr<const pcl::PCLPointCloud2>* scans = nullptr) {
+                     const std::vector<Keyframe>& keyframes, BagScans* scans = nullptr) {
   if (!keyframes.empty()) {
     log.say("  " + std::to_string(keyframes.size()) + " keyframes in " + o.keyframes);
     DriveInput in = loadDrive(o, log, map_frame, {});  // the fixes (a bag's odometry unread)
@@ -560,14 +567,12 @@ int run(int argc, char** argv) {
   if (params.report_png) context.plot = &plot.emplace(findPlotScript());
   const std::vector<Keyframe> keyframes =
       o.keyframes.empty() ? std::vector<Keyframe>() : readKeyframes(o.keyframes);
-  std::shared_ptr<const pcl::PCLPointCloud2> scans;
-  const DriveInput drive = loadDrive(o, log, context.frames.map, keyframes, &scans);
+  BagScans bag_scans;
+  const DriveInput drive = loadDrive(o, log, context.frames.map, keyframes, &bag_scans);
+  const bool scans = bag_scans.cloud != nullptr;
   checkCancel();
   MapInfo info;
   const bool map_file = checkMap(o, params.point_sigma, info);
-  // The scans' map goes through the same streamed warp as a map file, from a temporary copy.
-  const TempFile scan_pcd(scans ? "scans" : "");
-  if (scans) writePcdBinary(scan_pcd.path(), *scans);
   const bool has_map = map_file || !keyframes.empty() || scans;
   checkCancel();
   // A binary map's body starts on its way into the output now, beside the georeferencing.
@@ -584,6 +589,10 @@ int run(int argc, char** argv) {
   checkTruthFrame(o, r);
   checkDegraded(r, params, nullptr, context.frames.map);  // before the map: it costs nothing
   checkCancel();
+  // The scans' map goes through the same streamed warp as a map file, from a temporary copy
+  // (scans in the body's frame placed by the SLAM's poses first).
+  const TempFile scan_pcd(scans ? "scans" : "");
+  if (scans) writePcdBinary(scan_pcd.path(), scanMapOf(bag_scans, r));
 
   const MapWriter write_map =
       !keyframes.empty() ? keyframeMap(o, params, r, log, keyframes, info)

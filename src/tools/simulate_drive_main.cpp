@@ -58,6 +58,7 @@ constexpr const char* kUsage = R"(usage: simulate_drive [options]
                           the scan that saw it (georeference then rebuilds the map from it)
   --scans                 also put the map into the bag as the SLAM's registered scans on
                           /scans (PointCloud2 in the map frame, one per pose, its stamp)
+  --body-scans            the same in the body's frame (base_link), as the LiDAR saw them
   --keyframes             also write the map as a keyframe SLAM's dump: keyframes/NNNNNN/data
                           (stamp, pose) and cloud.pcd (its points in its own frame), for
                           georeference --keyframes
@@ -74,6 +75,7 @@ struct Options {
   bool map_time = false;
   bool keyframes = false;
   bool scans = false;
+  bool body_scans = false;
 };
 
 Options parse(int argc, char** argv) {
@@ -143,6 +145,8 @@ Options parse(int argc, char** argv) {
       o.keyframes = true;
     } else if (f == "--scans") {
       o.scans = true;
+    } else if (f == "--body-scans") {
+      o.scans = o.body_scans = true;
     } else {
       return false;
     }
@@ -175,10 +179,12 @@ void writeBag(const std::string& path, const sim::SimDrive& d, const Options& o,
       const auto path_msg = ros_conv::toPath(d.slam, "map");
       bag.write(o.odom_topic, path_msg.header.stamp, path_msg);
     }
-    for (const auto& [pose, scan] :
-         o.scans ? sim::registeredScans(d) : decltype(sim::registeredScans(d)){}) {
+    const auto scans = !o.scans       ? decltype(sim::registeredScans(d)){}
+                       : o.body_scans ? sim::keyframeClouds(d)
+                                      : sim::registeredScans(d);
+    for (const auto& [pose, scan] : scans) {
       sensor_msgs::PointCloud2 msg;
-      ros_conv::toCloudMsg(scan, "map", msg);
+      ros_conv::toCloudMsg(scan, o.body_scans ? "base_link" : "map", msg);
       msg.header.stamp = ros_conv::toTime(pose.stamp);
       bag.write("/scans", msg.header.stamp, msg);
     }

@@ -286,6 +286,18 @@ TEST_F(Tools, ABagsRegisteredScansMakeTheMapRebuiltFromTheirPoses) {
   EXPECT_EQ(rebuilt.count, 100000u);
   EXPECT_LT(rebuilt.rmse, 0.95 * warped.rmse);
   EXPECT_LT(rebuilt.max, 0.8 * warped.max);
+  // The same scans as the LiDAR saw them, in the body's frame: placed by the SLAM's poses first.
+  const std::string body = out("body_scans");
+  ASSERT_TRUE(simulate(body,
+                       "--map-points 100000 --seed 5 --laps 3 --length 2000 "
+                       "--heading-bias 0.3 --body-scans"));
+  const Result b = sh(bin("georeference") + " -q --bag " + body + "/drive.bag" + datum() +
+                      " --set report_png=false --scan-topic /scans --out " + out("body_out"));
+  ASSERT_EQ(b.code, 0) << b.output;
+  const ErrorStats from_body = error(out("body_out"));
+  std::printf("body-frame scans rebuilt: RMSE %.4f MAX %.4f m\n", from_body.rmse, from_body.max);
+  EXPECT_LT(from_body.rmse, 1.05 * rebuilt.rmse);
+  EXPECT_LT(from_body.max, 1.1 * rebuilt.max);
   const Result missing = sh(run + " -q --scan-topic /points --out " + out("scans_missing"));
   EXPECT_EQ(missing.code, 1);
   EXPECT_NE(missing.output.find(drive + "/drive.bag: topic /points is not in the bag"),

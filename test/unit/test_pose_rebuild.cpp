@@ -368,5 +368,26 @@ TEST(ScanMap, RegisteredScansBecomeOneMapWithTheirStamps) {
   EXPECT_EQ(m.cloud().width, 1u);
 }
 
+TEST(ScanMap, ScansInTheBodysFrameArePlacedByTheirPoses) {
+  const Drive d;
+  ScanMap m;
+  for (std::size_t i : {2, 6}) {
+    m.add(cloudOf({kBody, {kNaN, kNaN, kNaN}}, {0.0, 0.0}, F::FLOAT64), d.slam[i].stamp, "/scans");
+  }
+  m.add(cloudOf({kBody}, {0.0}, F::FLOAT64), d.slam[10].stamp + 3.0, "/scans");  // 2 s beyond
+  pcl::PCLPointCloud2 c = m.cloud();
+  EXPECT_EQ(placeBodyScans(c, d.slam), 1u);
+  EXPECT_LT((pointOf(c, 0) - isometry(d.slam[2]) * kBody).norm(), 1e-9);
+  EXPECT_TRUE(std::isnan(pointOf(c, 1).x()));
+  EXPECT_LT((pointOf(c, 2) - isometry(d.slam[6]) * kBody).norm(), 1e-9);
+  EXPECT_LT((pointOf(c, 4) - isometry(d.slam[10]) * kBody).norm(), 1e-9);  // the last pose's
+  EXPECT_EQ(scanFrameKind("map", "map", "base_link", "/scans"), "");
+  EXPECT_EQ(scanFrameKind("base_link", "map", "base_link", "/scans"), "body");
+  EXPECT_EQ(scanFrameKind("velodyne", "map", "", "/scans"), "body");
+  EXPECT_EQ(test::errorOf([] { scanFrameKind("velodyne", "map", "base_link", "/scans"); }),
+            "/scans: the scans are in frame 'velodyne', neither the poses' ('map': registered "
+            "scans) nor their body's ('base_link': scans as the LiDAR saw them)");
+}
+
 }  // namespace
 }  // namespace flexcloud

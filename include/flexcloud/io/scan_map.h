@@ -11,6 +11,8 @@
 
 namespace flexcloud {
 
+struct Pose;  // flexcloud/types.h
+
 /// The field each point of a ScanMap gains: its scan's stamp, float64 s.
 constexpr const char* kScanTimeField = "scan_time";
 
@@ -33,5 +35,19 @@ class ScanMap {
   std::vector<std::uint8_t> data_;
   std::size_t scans_ = 0;
 };
+
+/// Scans in the SLAM's body frame (each as the LiDAR saw it, from the pose at its stamp) placed
+/// into the SLAM's map frame: every point of `cloud` (a ScanMap's) moved by the pose of `slam`
+/// at its scan_time (interpolated; held at the first or last pose up to a second beyond them).
+/// Returns how many points lie in scans more than a second beyond the poses: placed by the
+/// nearest end pose, and named by the rebuild as naming no pose.
+std::size_t placeBodyScans(pcl::PCLPointCloud2& cloud, const std::vector<Pose>& slam);
+
+/// Which frame registered scans must be in, or may be in as body-frame scans: "" where `scans`
+/// (the scans' frame) is `poses` (the poses' frame: registered), "body" where it is `body` (the
+/// odometry's child frame, or any other where that is unknown); throws Error naming `name` and
+/// the three frames otherwise.
+std::string scanFrameKind(const std::string& scans, const std::string& poses,
+                          const std::string& body, const std::string& name);
 
 }  // namespace flexcloud
