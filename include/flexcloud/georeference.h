@@ -167,7 +167,7 @@ std::vector<SigmaFix> sigmaFixes(const GeoreferenceResult& r, const Params& para
 double estimatedClockSigma(const GeoreferenceResult& r);
 
 /// The poses a map's points are rebuilt with (pose_rebuild.h), one per pose of `poses`: the
-/// fused trajectory, or without the fusion the rubber-sheeted one.
+/// fused trajectory where the sheet was fitted to it, else the rubber-sheeted one.
 const Trajectory& resultPoses(const GeoreferenceResult& r);
 
 /// The interpolated GNSS at every matched pose, stamped like the pose (identity orientation).

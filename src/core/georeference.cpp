@@ -824,7 +824,7 @@ std::vector<std::string> stampedWarnings(const GeoreferenceResult& r, const Para
 std::string toString(Method m) { return m == Method::kFusion ? "fusion" : "gnss"; }
 
 const Trajectory& resultPoses(const GeoreferenceResult& r) {
-  return r.fusion ? r.fusion->poses : r.rubbersheet;
+  return r.fusion && r.method == Method::kFusion ? r.fusion->poses : r.rubbersheet;
 }
 
 Trajectory gnssTrajectory(const GeoreferenceResult& r) {
