@@ -14,6 +14,13 @@ inline int threadCount(int requested) {
   return requested > 0 ? requested : std::max(1, tbb::this_task_arena::max_concurrency());
 }
 
+/// How many contiguous ranges a loop over n map points runs in: one a thread, at most one per
+/// 64 K points (a range keeps its previous point's state as its guess for the next).
+inline std::size_t pointRanges(std::size_t n, int threads) {
+  return static_cast<std::size_t>(
+      std::max(1, std::min<int>(threadCount(threads), static_cast<int>(n / 65536 + 1))));
+}
+
 /// Runs f(part, begin, end) over [0, n) split into `parts` contiguous ranges, on at most `threads`
 /// threads (0: all cores). Contiguous ranges keep the locality a caller relies on (a map stored
 /// scan by scan, a grid walked slab by slab). An exception in f reaches the caller.

@@ -1,5 +1,6 @@
 #include "flexcloud/io/cloud_layout.h"
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -13,6 +14,15 @@ pcl::PCLPointField pointField(const std::string& name, std::uint32_t offset,
   f.datatype = datatype;
   f.count = 1;
   return f;
+}
+
+bool sameFields(const std::vector<pcl::PCLPointField>& a,
+                const std::vector<pcl::PCLPointField>& b) {
+  return a.size() == b.size() &&
+         std::equal(a.begin(), a.end(), b.begin(), [](const auto& x, const auto& y) {
+           return x.name == y.name && x.offset == y.offset && x.datatype == y.datatype &&
+                  x.count == y.count;
+         });
 }
 
 XyzLayout xyzLayout(const pcl::PCLPointCloud2& cloud, const std::string& name) {

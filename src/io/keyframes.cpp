@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <sstream>
 
+#include "flexcloud/input/trajectory.h"
 #include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/io/pcd_header.h"
 #include "flexcloud/io/pcd_io.h"
@@ -78,9 +79,7 @@ Pose parseKeyframeData(const std::string& text, const std::string& name) {
 }
 
 std::string keyframeDataText(const Pose& pose) {
-  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-  m.topLeftCorner<3, 3>() = pose.orientation.normalized().toRotationMatrix();
-  m.topRightCorner<3, 1>() = pose.position;
+  const Eigen::Matrix4d m = isometryOf(pose).matrix();
   const auto sec = static_cast<long long>(std::floor(pose.stamp));
   const auto nsec = static_cast<long long>(std::llround((pose.stamp - sec) * 1e9));
   std::ostringstream s;
@@ -130,15 +129,9 @@ void writeKeyframeMap(const std::vector<Keyframe>& keyframes, const PoseCorrecti
   std::size_t total = 0;
   for (const auto& k : keyframes) {
     const PcdHeader h = readPcdHeader(k.cloud);
-    const std::vector<pcl::PCLPointField> f = pclFields(h);
-    const bool same =
-        h.point_step == first.point_step && f.size() == fields.size() &&
-        std::equal(f.begin(), f.end(), fields.begin(), [](const auto& a, const auto& b) {
-          return a.name == b.name && a.offset == b.offset && a.datatype == b.datatype &&
-                 a.count == b.count;
-        });
-    if (!same)
+    if (h.point_step != first.point_step || !sameFields(pclFields(h), fields)) {
       throw Error(k.cloud + ": its fields differ from those of " + keyframes.front().cloud);
+    }
     total += h.points;
   }
   const std::size_t step = first.point_step + (sigmas != nullptr ? kPointSigmaBytes : 0);
@@ -149,30 +142,26 @@ void writeKeyframeMap(const std::vector<Keyframe>& keyframes, const PoseCorrecti
   std::vector<std::uint8_t> rows;
   for (const auto& k : keyframes) {
     cancel.check(out + ": keyframes");
-    const pcl::PCLPointCloud2 c = readPcd(k.cloud);
+    pcl::PCLPointCloud2 c = readPcd(k.cloud);
+    if (c.point_step != first.point_step) {
+      throw Error(k.cloud + ": its points are " + std::to_string(c.point_step) + " bytes, " +
+                  keyframes.front().cloud + "'s " + std::to_string(first.point_step));
+    }
     XyzLayout layout = xyzLayout(c, k.cloud);
     const std::size_t n = layout.points;
-    rows.resize(n * step);
+    std::uint8_t* data = c.data.data();  // moved in place, or with sigmas in widened rows
     SigmaSink sink;
     if (sigmas != nullptr) {
+      rows.resize(n * step);
       widenPoints(c.data.data(), c.point_step, n, rows.data());
       sink = {sigmas, rows.data() + c.point_step, step};
-    } else {
-      std::copy(c.data.begin(), c.data.end(), rows.begin());
+      data = rows.data();
+      layout.point_step = step;
     }
-    layout.point_step = step;
-    const Eigen::Isometry3d pose = [&] {
-      Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-      t.linear() = k.pose.orientation.toRotationMatrix();
-      t.translation() = k.pose.position;
-      return t;
-    }();
-    const WarpStats s = rebuildKeyframe(rows.data(), layout, pose, k.pose.stamp, corrections, sink);
-    writer.write(rows.data(), n);
-    info.warp.points += s.points;
-    info.warp.outside += s.outside;
-    info.warp.non_finite += s.non_finite;
-    info.warp.sample.insert(info.warp.sample.end(), s.sample.begin(), s.sample.end());
+    const WarpStats s =
+        rebuildKeyframe(data, layout, isometryOf(k.pose), k.pose.stamp, corrections, sink);
+    writer.write(data, n);
+    info.warp.merge(s);
   }
   writer.commit();
   info.pose_field = kKeyframeDump;

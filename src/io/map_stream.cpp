@@ -183,10 +183,7 @@ class MapJob {
                             sink)
             : warpPoints(data, part, sheet_, options_.threads, in_, *options_.cancel, sink);
     info_.warp_seconds += since(t0);
-    info_.warp.points += s.points;
-    info_.warp.outside += s.outside;
-    info_.warp.non_finite += s.non_finite;
-    info_.warp.sample.insert(info_.warp.sample.end(), s.sample.begin(), s.sample.end());
+    info_.warp.merge(s);
     if (t) compare(data, part, t, n, Eigen::Isometry3d::Identity(), warped_);
   }
 

@@ -12,18 +12,6 @@
 #include "flexcloud/warp/pose_rebuild.h"
 
 namespace flexcloud {
-namespace {
-
-bool sameFields(const std::vector<pcl::PCLPointField>& a,
-                const std::vector<pcl::PCLPointField>& b) {
-  return a.size() == b.size() &&
-         std::equal(a.begin(), a.end(), b.begin(), [](const auto& x, const auto& y) {
-           return x.name == y.name && x.offset == y.offset && x.datatype == y.datatype &&
-                  x.count == y.count;
-         });
-}
-
-}  // namespace
 
 void ScanMap::add(const pcl::PCLPointCloud2& scan, double stamp, const std::string& name) {
   const std::size_t n = static_cast<std::size_t>(scan.width) * scan.height;
@@ -74,7 +62,7 @@ std::size_t placeBodyScans(pcl::PCLPointCloud2& cloud, const std::vector<Pose>& 
   const std::optional<PointPoseField> time = pointPoseField(cloud.fields, kScanTimeField, "scans");
   std::size_t beyond = 0;
   double at = std::numeric_limits<double>::quiet_NaN();
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  // the scan's
   bool far = false;
   for (std::size_t i = 0; i < layout.points; ++i) {
     std::uint8_t* row = cloud.data.data() + i * layout.point_step;
@@ -83,9 +71,7 @@ std::size_t placeBodyScans(pcl::PCLPointCloud2& cloud, const std::vector<Pose>& 
       at = t;
       const double lo = slam.front().stamp, hi = slam.back().stamp;
       far = !(t >= lo - PoseCorrections::kReach && t <= hi + PoseCorrections::kReach);
-      const std::optional<Pose> p = poseAt(slam, std::clamp(std::isfinite(t) ? t : lo, lo, hi));
-      pose.linear() = p->orientation.normalized().toRotationMatrix();
-      pose.translation() = p->position;
+      pose = isometryOf(*poseAt(slam, std::clamp(std::isfinite(t) ? t : lo, lo, hi)));
     }
     const Eigen::Vector3d q = layout.get(row);
     if (q.allFinite()) layout.set(row, pose * q);

@@ -63,7 +63,7 @@ void DriveCollector::handleScan(const sensor_msgs::PointCloud2& msg, const std::
 DriveCollector::Scans DriveCollector::scans() const {
   GuardedLock lock(mutex_);
   if (scans_.scans() == 0) return {};
-  return {std::make_shared<const pcl::PCLPointCloud2>(scans_.cloud()), scan_frame_, scans_.scans()};
+  return {std::make_shared<pcl::PCLPointCloud2>(scans_.cloud()), scan_frame_, scans_.scans()};
 }
 
 DriveInput DriveCollector::snapshot() const {

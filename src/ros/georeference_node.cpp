@@ -491,6 +491,20 @@ sensor_msgs::PointCloud2Ptr widenedForSigmas(const sensor_msgs::PointCloud2& map
 
 }  // namespace
 
+sensor_msgs::PointCloud2ConstPtr GeoreferenceNode::scanMap(const GeoreferenceResult& r) const {
+  DriveCollector::Scans scans = collector_.scans();
+  if (!scans.cloud) return nullptr;
+  const std::string poses = collector_.mapFrame();
+  if (scanFrameKind(scans.frame, poses, collector_.bodyFrame(), nh_.resolveName("scans")) ==
+      "body") {
+    placeBodyScans(*scans.cloud, r.poses);  // as the LiDAR saw them: placed by the SLAM's poses
+  }
+  sensor_msgs::PointCloud2Ptr msg(new sensor_msgs::PointCloud2);
+  pcl_conversions::moveFromPCL(*scans.cloud, *msg);
+  msg->header.frame_id = poses.empty() ? "map" : poses;
+  return msg;
+}
+
 sensor_msgs::PointCloud2ConstPtr GeoreferenceNode::warpMap(const NodeParams& params,
                                                            const GeoreferenceResult& r,
                                                            const CancelToken& cancel,
@@ -511,19 +525,12 @@ sensor_msgs::PointCloud2ConstPtr GeoreferenceNode::warpMap(const NodeParams& par
   }
   std::string name = params.map_file.empty() ? nh_.resolveName("map") : params.map_file;
   std::string wanted = params.core.map_pose_field;
-  if (const DriveCollector::Scans scans = collector_.scans();
-      scans.cloud && params.map_file.empty()) {
-    // Registered scans make the map: each point with its scan's stamp, rebuilt from its pose.
-    name = nh_.resolveName("scans");
-    const std::string poses = collector_.mapFrame();
-    pcl::PCLPointCloud2 cloud = *scans.cloud;
-    if (scanFrameKind(scans.frame, poses, collector_.bodyFrame(), name) == "body") {
-      placeBodyScans(cloud, r.poses);  // as the LiDAR saw them: placed by the SLAM's poses
+  if (params.map_file.empty()) {
+    if (sensor_msgs::PointCloud2ConstPtr scans = scanMap(r)) {
+      map = std::move(scans);
+      name = nh_.resolveName("scans");
+      wanted = kScanTimeField;
     }
-    sensor_msgs::PointCloud2Ptr msg(new sensor_msgs::PointCloud2);
-    ros_conv::toCloudMsg(cloud, poses.empty() ? "map" : poses, *msg);
-    map = msg;
-    wanted = kScanTimeField;
   }
   if (!map) return nullptr;
   const auto t0 = std::chrono::steady_clock::now();

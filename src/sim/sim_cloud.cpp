@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "flexcloud/input/trajectory.h"
 #include "flexcloud/io/cloud_layout.h"
 
 namespace flexcloud::sim {
@@ -67,9 +68,7 @@ std::vector<std::pair<Pose, pcl::PCLPointCloud2>> scans(const SimDrive& d, bool 
     while (end < d.map.slam.size() && d.map.time[end] == d.map.time[i]) ++end;
     while (k < d.slam.size() && d.slam[k].stamp < d.map.time[i] - 1e-6) ++k;
     if (k < d.slam.size() && std::abs(d.slam[k].stamp - d.map.time[i]) < 1e-6) {
-      Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-      pose.linear() = d.slam[k].orientation.toRotationMatrix();
-      pose.translation() = d.slam[k].position;
+      const Eigen::Isometry3d to_body = isometryOf(d.slam[k]).inverse();
       pcl::PCLPointCloud2 c;
       c.fields = all.fields;
       c.point_step = all.point_step;
@@ -80,7 +79,7 @@ std::vector<std::pair<Pose, pcl::PCLPointCloud2>> scans(const SimDrive& d, bool 
       c.data.assign(all.data.begin() + static_cast<std::ptrdiff_t>(i * all.point_step),
                     all.data.begin() + static_cast<std::ptrdiff_t>(end * all.point_step));
       for (std::size_t j = i; body && j < end; ++j) {
-        const Eigen::Vector3d p = pose.inverse() * d.map.slam[j];
+        const Eigen::Vector3d p = to_body * d.map.slam[j];
         for (int a = 0; a < 3; ++a) {
           put<float>(c.data.data() + (j - i) * c.point_step + 4 * a, static_cast<float>(p(a)));
         }

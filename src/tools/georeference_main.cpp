@@ -320,7 +320,7 @@ class TempFile {
 
 /// The bag's scans, gathered into one map (scan_map.h).
 struct BagScans {
-  std::shared_ptr<const pcl::PCLPointCloud2> cloud;
+  std::shared_ptr<pcl::PCLPointCloud2> cloud;
   bool body = false;  ///< in the body's frame: placed by the SLAM's poses before the rebuild
 };
 
@@ -334,11 +334,10 @@ BagScans bagScans(const Options& o, const BagSummary& s, const DriveCollector& c
   return {scans.cloud, kind == "body"};
 }
 
-/// The scans' map in the SLAM's map frame.
-pcl::PCLPointCloud2 scanMapOf(const BagScans& scans, const GeoreferenceResult& r) {
-  pcl::PCLPointCloud2 cloud = *scans.cloud;
-  if (scans.body) placeBodyScans(cloud, r.poses);
-  return cloud;
+/// Writes the scans' map, in the SLAM's map frame, to `path`.
+void writeScanMap(const BagScans& scans, const GeoreferenceResult& r, const std::string& path) {
+  if (scans.body) placeBodyScans(*scans.cloud, r.poses);
+  writePcdBinary(path, *scans.cloud);
 }
 
 /// The drive; with --scan-topic, `scans` gets the map the bag's registered scans make.
@@ -592,7 +591,7 @@ int run(int argc, char** argv) {
   // The scans' map goes through the same streamed warp as a map file, from a temporary copy
   // (scans in the body's frame placed by the SLAM's poses first).
   const TempFile scan_pcd(scans ? "scans" : "");
-  if (scans) writePcdBinary(scan_pcd.path(), scanMapOf(bag_scans, r));
+  if (scans) writeScanMap(bag_scans, r, scan_pcd.path());
 
   const MapWriter write_map =
       !keyframes.empty() ? keyframeMap(o, params, r, log, keyframes, info)

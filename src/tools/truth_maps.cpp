@@ -23,13 +23,6 @@ constexpr double kOtherPass = 60.0;      // s between two poses of different pas
 constexpr double kSensorHeight = 1.7;    // m above the road
 constexpr double kBandEdges[kBands + 1] = {0.0, 10.0, 30.0, 50.0};
 
-Eigen::Isometry3d isometryOf(const Pose& p) {
-  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.linear() = p.orientation.normalized().toRotationMatrix();
-  t.translation() = p.position;
-  return t;
-}
-
 /// A body-frame offset a car's LiDAR sees: ground below (4 in 10), a wall beside (4 in 10), a
 /// pole (2 in 10), 2-50 m out.
 Eigen::Vector3d scanOffset(const BodyAxes& a, std::mt19937_64& rng) {

@@ -47,6 +47,11 @@ class Tools : public ::testing::Test {
   static std::string sim() { return (dir_ / "sim").string(); }
   static std::string out(const std::string& name) { return (dir_ / name).string(); }
   static std::string datum() { return " --datum 48.2620 11.6670 480.0"; }  // the simulator's
+  /// The georeferenced map in the output folder `o` against `truth` (same points, same order).
+  static ErrorStats againstTruth(const std::string& o, const pcl::PCLPointCloud2& truth) {
+    return compareClouds(readPcd(o + "/map_georeferenced.pcd"), truth,
+                         [](const Eigen::Vector3d& p) { return p; });
+  }
   /// A drive of its own into `drive`, simulate_drive's options `args`; whether it was written.
   static bool simulate(const std::string& drive, const std::string& args) {
     return sh(bin("simulate_drive") + " --out " + drive + " " + args).code == 0;
@@ -207,10 +212,7 @@ TEST_F(Tools, AKeyframeDumpIsTheTrajectoryAndItsMapIsRebuilt) {
                        "--map-points 100000 --seed 5 --laps 3 --length 2000 "
                        "--heading-bias 0.3 --keyframes"));
   const pcl::PCLPointCloud2 truth = readPcd(drive + "/truth_map.pcd");
-  const auto error = [&](const std::string& o) {
-    return compareClouds(readPcd(o + "/map_georeferenced.pcd"), truth,
-                         [](const Eigen::Vector3d& p) { return p; });
-  };
+  const auto error = [&](const std::string& o) { return againstTruth(o, truth); };
   const std::string tail =
       " --keyframes " + drive + "/keyframes" + datum() + " --set report_png=false --point-sigma";
   const Result r = sh(bin("georeference") + " --gnss " + drive + "/gnss.txt" + tail + " --out " +
@@ -278,10 +280,7 @@ TEST_F(Tools, ABagsRegisteredScansMakeTheMapRebuiltFromTheirPoses) {
   const Result sheet = sh(run + " -q --map " + drive + "/map.pcd --out " + out("scans_sheet"));
   ASSERT_EQ(sheet.code, 0) << sheet.output;
   const pcl::PCLPointCloud2 truth = readPcd(drive + "/truth_map.pcd");
-  const auto error = [&](const std::string& o) {
-    return compareClouds(readPcd(o + "/map_georeferenced.pcd"), truth,
-                         [](const Eigen::Vector3d& p) { return p; });
-  };
+  const auto error = [&](const std::string& o) { return againstTruth(o, truth); };
   const ErrorStats rebuilt = error(out("scans_out")), warped = error(out("scans_sheet"));
   std::printf("scans rebuilt: RMSE %.4f MAX %.4f m; the sheet: RMSE %.4f MAX %.4f m\n",
               rebuilt.rmse, rebuilt.max, warped.rmse, warped.max);

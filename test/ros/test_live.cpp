@@ -533,6 +533,20 @@ TEST_F(Live, AMapWhosePointsKnowTheirTimeIsRebuiltFromTheirPoses) {
   EXPECT_GE(share, 90.0);
 }
 
+/// Publishes each scan in `frame`, stamped with its pose's stamp.
+void publishScans(ros::Publisher& pub,
+                  const std::vector<std::pair<Pose, pcl::PCLPointCloud2>>& scans,
+                  const std::string& frame) {
+  std::size_t k = 0;
+  for (const auto& [pose, scan] : scans) {
+    Cloud msg;
+    ros_conv::toCloudMsg(scan, frame, msg);
+    msg.header.stamp = ros_conv::toTime(pose.stamp);
+    pub.publish(msg);
+    if (++k % 500 == 0) ros::WallDuration(0.05).sleep();  // stay within the queues
+  }
+}
+
 /// The SLAM's registered scans on `scans` (one PointCloud2 a pose, in the map frame): the map
 /// is made of them, each point rebuilt with its scan's pose, and lies on its truth; ~reset
 /// forgets them with the drive.
@@ -541,14 +555,7 @@ TEST_F(Live, RegisteredScansMakeTheMapRebuiltFromTheirPoses) {
   ros::Publisher scans = nh.advertise<Cloud>("/scans", 10000);
   ASSERT_TRUE(subscribed({&scans}, 20.0));
   publishDrive();
-  std::size_t k = 0;
-  for (const auto& [pose, scan] : sim::registeredScans(*drive_)) {
-    Cloud msg;
-    ros_conv::toCloudMsg(scan, "map", msg);
-    msg.header.stamp = ros_conv::toTime(pose.stamp);
-    scans.publish(msg);
-    if (++k % 500 == 0) ros::WallDuration(0.05).sleep();
-  }
+  publishScans(scans, sim::registeredScans(*drive_), "map");
   const auto r = callUntil([this](const flexcloud::Georeference::Response& a) {
     return a.success && a.map_pose_field == "scan_time" && a.map_points == drive_->map.slam.size();
   });
@@ -566,13 +573,7 @@ TEST_F(Live, RegisteredScansMakeTheMapRebuiltFromTheirPoses) {
   reset();  // the scans go with the drive: the next test's map is the map topic's again
   // The same scans as the LiDAR saw them, in the odometry's body frame: placed by its poses.
   publishDrive();
-  for (const auto& [pose, scan] : sim::keyframeClouds(*drive_)) {
-    Cloud msg;
-    ros_conv::toCloudMsg(scan, "base_link", msg);
-    msg.header.stamp = ros_conv::toTime(pose.stamp);
-    scans.publish(msg);
-    if (++k % 500 == 0) ros::WallDuration(0.05).sleep();
-  }
+  publishScans(scans, sim::keyframeClouds(*drive_), "base_link");
   ASSERT_EQ(callUntil([this](const flexcloud::Georeference::Response& a) {
               return a.success && a.map_pose_field == "scan_time" &&
                      a.map_points == drive_->map.slam.size();

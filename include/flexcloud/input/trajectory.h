@@ -41,6 +41,9 @@ std::vector<double> arcLength(const std::vector<Eigen::Vector3d>& positions);
 
 std::vector<Eigen::Vector3d> positionsOf(const Trajectory& poses);
 
+/// The pose as a transform (body -> its frame), the orientation normalised.
+Eigen::Isometry3d isometryOf(const Pose& p);
+
 /// The pose at stamp t, between the two poses around it (position linear, orientation slerp);
 /// nothing outside the poses' span. `poses` sorted by stamp.
 std::optional<Pose> poseAt(const Trajectory& poses, double t);

@@ -17,6 +17,9 @@ namespace flexcloud {
 /// One field of a point (count 1).
 pcl::PCLPointField pointField(const std::string& name, std::uint32_t offset, std::uint8_t datatype);
 
+/// Whether two clouds' fields are the same: names, offsets, types and counts, in order.
+bool sameFields(const std::vector<pcl::PCLPointField>& a, const std::vector<pcl::PCLPointField>& b);
+
 /// Reads the layout; throws Error naming `name` when x/y/z are missing, not FLOAT32/FLOAT64,
 /// outside the point, or the data size does not match points * point_step.
 XyzLayout xyzLayout(const std::vector<pcl::PCLPointField>& fields, std::size_t point_step,

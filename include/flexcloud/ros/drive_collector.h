@@ -35,9 +35,10 @@ class DriveCollector {
   /// kept in the scan map (scan_map.h). Throws Error naming `topic` for a scan whose fields
   /// differ from the first one's.
   void handleScan(const sensor_msgs::PointCloud2& msg, const std::string& topic);
-  /// The map of the scans collected so far (none: empty) and the frame they came in.
+  /// The map of the scans collected so far (none: null), a copy of the caller's own, and the
+  /// frame they came in.
   struct Scans {
-    std::shared_ptr<const pcl::PCLPointCloud2> cloud;
+    std::shared_ptr<pcl::PCLPointCloud2> cloud;
     std::string frame;
     std::size_t count = 0;
   };

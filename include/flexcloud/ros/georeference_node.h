@@ -98,6 +98,9 @@ class GeoreferenceNode {
   /// Lines on live values that landed on their range's bound (dynamic_reconfigure clamps
   /// values beyond it without a word).
   std::vector<std::string> clampNotes(const NodeParams& before, const NodeParams& after) const;
+  /// The map the scans collected so far make (scan_map.h), in the poses' frame; null without
+  /// scans. Throws Error for scans in neither the poses' frame nor their body's.
+  sensor_msgs::PointCloud2ConstPtr scanMap(const GeoreferenceResult& r) const;
   sensor_msgs::PointCloud2ConstPtr warpMap(const NodeParams& params, const GeoreferenceResult& r,
                                            const CancelToken& cancel, MapInfo& info);
   /// Shows a finished run (or its failure) unless a reset came in between.

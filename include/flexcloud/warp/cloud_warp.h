@@ -2,6 +2,7 @@
 // Warping a point cloud of any layout: only the x, y, z fields change, in place; every other
 // field, the point order and the NaN points stay as they were.
 
+#include <cstring>
 #include <functional>
 
 #include "flexcloud/cancel.h"
@@ -31,6 +32,14 @@ struct SigmaSink {
   const PointSigmaField* field = nullptr;
   std::uint8_t* out = nullptr;
   std::size_t stride = 2 * sizeof(float);
+
+  /// Writes point i's sigma_h and sigma_v (nothing where field is null).
+  void write(std::size_t i, float h, float v) const {
+    if (field == nullptr) return;
+    std::uint8_t* at = out + i * stride;
+    std::memcpy(at, &h, sizeof(float));
+    std::memcpy(at + sizeof(float), &v, sizeof(float));
+  }
 };
 
 struct WarpStats {
@@ -40,7 +49,18 @@ struct WarpStats {
   /// Finite points before the warp (map frame), about 1000 evenly spread per call of
   /// warpPoints(): enough to judge where the map lies against its trajectory.
   std::vector<Eigen::Vector3d> sample;
+
+  /// Adds the counts and the sample of another part of the map.
+  void merge(const WarpStats& o) {
+    points += o.points;
+    outside += o.outside;
+    non_finite += o.non_finite;
+    sample.insert(sample.end(), o.sample.begin(), o.sample.end());
+  }
 };
+
+/// About 1000 finite points of the n of a raw buffer, evenly spread (WarpStats::sample).
+std::vector<Eigen::Vector3d> samplePoints(const std::uint8_t* data, const XyzLayout& layout);
 
 /// Warps the xyz of every point of a raw buffer of the given layout with the rubber sheet (map
 /// frame -> ENU), on `threads` threads (0: all cores). Throws Error("NAME: warp: cancelled")

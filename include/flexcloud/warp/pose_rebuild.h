@@ -56,7 +56,6 @@ class PoseCorrections {
 
   const Eigen::Isometry3d& rigid() const { return rigid_; }
   std::size_t size() const { return stamps_.size(); }
-  TimeRange span() const { return {stamps_.front(), stamps_.back()}; }
 
   /// Why `values` (a sample of the field over the map) cannot be this trajectory's times or
   /// indices (fewer than 90 % of the finite ones name a pose), or "" where they can.

@@ -86,6 +86,13 @@ std::vector<Eigen::Vector3d> positionsOf(const Trajectory& poses) {
   return out;
 }
 
+Eigen::Isometry3d isometryOf(const Pose& p) {
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.linear() = p.orientation.normalized().toRotationMatrix();
+  t.translation() = p.position;
+  return t;
+}
+
 std::optional<Pose> poseAt(const Trajectory& poses, double t) {
   const auto it = std::lower_bound(poses.begin(), poses.end(), t,
                                    [](const Pose& p, double s) { return p.stamp < s; });

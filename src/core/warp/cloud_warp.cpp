@@ -285,7 +285,7 @@ class RangeWarper {
     ++s_.points;
     if (!p.allFinite()) {
       ++s_.non_finite;
-      if (sigmas_.field != nullptr) writeSigma(i, {kNaNf, kNaNf});
+      sigmas_.write(i, kNaNf, kNaNf);
       return;
     }
     RubberSheet::Location loc{last_, false};
@@ -310,12 +310,6 @@ class RangeWarper {
     const Eigen::Vector3d q = RubberSheet::apply(sheet_.affineAt(loc), p);
     xyz_.set(pt, q);
     if (batch_) batch_->add(q, loc.outside ? -1 : loc.tet, i);
-  }
-
-  void writeSigma(std::size_t i, const PointSigma& s) {
-    std::uint8_t* at = sigmas_.out + i * sigmas_.stride;
-    std::memcpy(at, &s.h, sizeof(float));
-    std::memcpy(at + sizeof(float), &s.v, sizeof(float));
   }
 
   /// The visibility walk from the last tetrahedron, which p lies beyond `face` (or on a face:
@@ -383,14 +377,10 @@ WarpStats warpPoints(std::uint8_t* data, const XyzLayout& layout, const RubberSh
                      const SigmaSink& sigmas) {
   const std::size_t n = layout.points;
   WarpStats total;
-  for (std::size_t i = 0, stride = std::max<std::size_t>(1, n / 1000); i < n; i += stride) {
-    const Eigen::Vector3d p = layout.get(data + i * layout.point_step);
-    if (p.allFinite()) total.sample.push_back(p);
-  }
+  total.sample = samplePoints(data, layout);
   prepareFor(data, layout, sheet, threads);
   // One contiguous range per thread: each keeps the previous point's tetrahedron as its guess.
-  const auto parts = static_cast<std::size_t>(
-      std::max(1, std::min<int>(threadCount(threads), static_cast<int>(n / 65536 + 1))));
+  const std::size_t parts = pointRanges(n, threads);
   const bool all_float = !layout.is_double[0] && !layout.is_double[1] && !layout.is_double[2];
   std::vector<WarpStats> part(parts);
   parallelRanges(n, parts, threads, [&](std::size_t k, std::size_t begin, std::size_t end) {
@@ -402,12 +392,18 @@ WarpStats warpPoints(std::uint8_t* data, const XyzLayout& layout, const RubberSh
     }
   });
   cancel.check(name + ": warp");
-  for (const auto& s : part) {
-    total.points += s.points;
-    total.outside += s.outside;
-    total.non_finite += s.non_finite;
-  }
+  for (const auto& s : part) total.merge(s);
   return total;
+}
+
+std::vector<Eigen::Vector3d> samplePoints(const std::uint8_t* data, const XyzLayout& layout) {
+  std::vector<Eigen::Vector3d> sample;
+  const std::size_t n = layout.points;
+  for (std::size_t i = 0, stride = std::max<std::size_t>(1, n / 1000); i < n; i += stride) {
+    const Eigen::Vector3d p = layout.get(data + i * layout.point_step);
+    if (p.allFinite()) sample.push_back(p);
+  }
+  return sample;
 }
 
 void comparePoints(const std::uint8_t* a, const XyzLayout& la, const std::uint8_t* b,

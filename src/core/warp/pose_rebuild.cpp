@@ -6,6 +6,7 @@
 #include <limits>
 #include <memory>
 
+#include "flexcloud/input/trajectory.h"
 #include "flexcloud/uncertainty/point_sigma.h"
 #include "parallel.h"
 
@@ -24,17 +25,10 @@ using Matrix34 = Eigen::Matrix<double, 3, 4>;
 
 Matrix34 matrixOf(const Eigen::Isometry3d& t) { return t.matrix().topRows<3>(); }
 
-Eigen::Isometry3d isometry(const Eigen::Vector3d& p, const Eigen::Quaterniond& q) {
-  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.linear() = q.normalized().toRotationMatrix();
-  t.translation() = p;
-  return t;
-}
-
 /// The pose between a and b at fraction w: positions blended, orientations slerped.
 Eigen::Isometry3d between(const Pose& a, const Pose& b, double w) {
-  return isometry(a.position + w * (b.position - a.position),
-                  a.orientation.slerp(w, b.orientation));
+  return isometryOf(
+      {0.0, a.position + w * (b.position - a.position), a.orientation.slerp(w, b.orientation)});
 }
 
 std::string range(const std::vector<double>& values) {
@@ -48,6 +42,8 @@ std::string range(const std::vector<double>& values) {
   std::snprintf(buf, sizeof(buf), "%.3f to %.3f", lo, hi);
   return buf;
 }
+
+constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 
 }  // namespace
 
@@ -86,8 +82,7 @@ PoseCorrections::PoseCorrections(const Trajectory& slam, const Trajectory& resul
       throw Error("rebuild: the SLAM's stamps do not increase at pose " + std::to_string(i));
     }
     stamps_.push_back(slam[i].stamp);
-    corrections_.push_back(matrixOf(isometry(result[i].position, result[i].orientation) *
-                                    isometry(slam[i].position, slam[i].orientation).inverse()));
+    corrections_.push_back(matrixOf(isometryOf(result[i]) * isometryOf(slam[i]).inverse()));
     if (i > 0) {
       halfway_.push_back(matrixOf(between(result[i - 1], result[i], 0.5) *
                                   between(slam[i - 1], slam[i], 0.5).inverse()));
@@ -192,7 +187,7 @@ class Rebuilder {
       ++s.points;
       if (!p.allFinite()) {
         ++s.non_finite;
-        writeSigma(i, {kNaN, kNaN});
+        sigmas_.write(i, kNaNf, kNaNf);
         continue;
       }
       if (!lookUp(rebuild_.field.read(pt))) ++s.outside;
@@ -204,8 +199,6 @@ class Rebuilder {
   }
 
  private:
-  static constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
-
   /// Sets m_ to the correction the value names (rigid where it names no pose); false there.
   bool lookUp(double v) {
     const bool time = rebuild_.field.kind == PointPoseField::Kind::kTime;
@@ -217,13 +210,6 @@ class Rebuilder {
     has_key_ = std::isfinite(key);
     key_ = key;
     return named_;
-  }
-
-  void writeSigma(std::size_t i, const PointSigma& s) {
-    if (sigmas_.field == nullptr) return;
-    std::uint8_t* out = sigmas_.out + i * sigmas_.stride;
-    std::memcpy(out, &s.h, sizeof(float));
-    std::memcpy(out + sizeof(float), &s.v, sizeof(float));
   }
 
   const XyzLayout& layout_;
@@ -246,22 +232,14 @@ WarpStats rebuildPoints(std::uint8_t* data, const XyzLayout& layout, const PoseR
   if (rebuild.corrections == nullptr) throw Error(name + ": rebuild: no pose corrections");
   const std::size_t n = layout.points;
   WarpStats total;
-  for (std::size_t i = 0, stride = std::max<std::size_t>(1, n / 1000); i < n; i += stride) {
-    const Eigen::Vector3d p = layout.get(data + i * layout.point_step);
-    if (p.allFinite()) total.sample.push_back(p);
-  }
-  const auto parts = static_cast<std::size_t>(
-      std::max(1, std::min<int>(threadCount(threads), static_cast<int>(n / 65536 + 1))));
+  total.sample = samplePoints(data, layout);
+  const std::size_t parts = pointRanges(n, threads);
   std::vector<WarpStats> part(parts);
   parallelRanges(n, parts, threads, [&](std::size_t k, std::size_t begin, std::size_t end) {
     Rebuilder(layout, rebuild, sigmas).run(data, begin, end, cancel, part[k]);
   });
   cancel.check(name + ": rebuild");
-  for (const auto& s : part) {
-    total.points += s.points;
-    total.outside += s.outside;
-    total.non_finite += s.non_finite;
-  }
+  for (const auto& s : part) total.merge(s);
   return total;
 }
 
@@ -280,18 +258,13 @@ WarpStats rebuildKeyframe(std::uint8_t* data, const XyzLayout& layout,
   if (sigmas.field != nullptr) batch = std::make_unique<PointSigmaBatch>(sigmas);
   const std::size_t n = layout.points;
   const std::size_t stride = std::max<std::size_t>(1, n / 16);
-  constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
   for (std::size_t i = 0; i < n; ++i) {
     std::uint8_t* pt = data + i * layout.point_step;
     const Eigen::Vector3d p = layout.get(pt);
     ++s.points;
     if (!p.allFinite()) {
       ++s.non_finite;
-      if (sigmas.field != nullptr) {
-        std::uint8_t* out = sigmas.out + i * sigmas.stride;
-        std::memcpy(out, &kNaN, sizeof(float));
-        std::memcpy(out + sizeof(float), &kNaN, sizeof(float));
-      }
+      sigmas.write(i, kNaNf, kNaNf);
       continue;
     }
     if (i % stride == 0) s.sample.push_back(pose * p);
