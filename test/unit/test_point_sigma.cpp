@@ -111,6 +111,30 @@ TEST(PointSigma, APointsSigmaGrowsWithItsDistanceFromThePose) {
   EXPECT_TRUE(std::isinf(PointSigmaField(t, PoseSigmas{}, *rigid).at({1, 2, 3}, tet).h));
 }
 
+// A point moved with its own pose (a rebuilt map) takes that pose's sigma and its distance
+// from that pose, whichever pose is nearest in the plan: 30 m left of pose 100 as above, and
+// the same place seen from pose 110, 20 m back along the road; naming no pose, its cell's.
+TEST(PointSigma, APointMovedWithItsOwnPoseTakesThatPosesSigma) {
+  PoseSigmas sigmas;
+  Trajectory t = windingDrive(500, sigmas);
+  for (std::size_t i = 0; i < t.size(); ++i) t[i].position = {2.0 * i + 1.0, 0.0, 0.0};
+  PointSigmaModel m;
+  m.scatter_h = 0.02, m.scatter_v = 0.03, m.heading = 0.001, m.tilt = 0.002;
+  const auto rigid = scalingSheet(1.0);
+  const PointSigmaField field(t, sigmas, *rigid, m);
+  const Eigen::Vector3d p(201.0, 30.0, 4.0);
+  const PointSigma own = field.ofPose(p, 100);
+  EXPECT_NEAR(own.h, field.at(p, rigid->locate(p).tet).h, 1e-6);
+  EXPECT_NEAR(own.v, field.at(p, rigid->locate(p).tet).v, 1e-6);
+  const PointSigma seen = field.ofPose(p, 110);
+  const double d2 = 20.0 * 20.0 + 30.0 * 30.0;
+  EXPECT_NEAR(seen.h, std::sqrt(0.12 * 0.12 + 0.02 * 0.02 + 1e-6 * d2 + 0.008 * 0.008), 1e-6);
+  EXPECT_NEAR(seen.v, std::sqrt(0.24 * 0.24 + 0.03 * 0.03 + 4e-6 * d2), 1e-6);
+  for (const int none : {PointSigmaField::kNoPose, 500, 100000}) {
+    EXPECT_NEAR(field.ofPose(p, none).h, own.h, 1e-6) << none;
+  }
+}
+
 // Two control points 10 cm apart in the map and 2 m apart in the result (a map torn between
 // two passes): the tetrahedra on that edge stretch more than 19 times, yet the points in them
 // may lie only about its 1.9 m change from their place, and their sigma says so.

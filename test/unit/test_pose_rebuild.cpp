@@ -15,6 +15,7 @@
 #include "flexcloud/io/map_stream.h"
 #include "flexcloud/io/pcd_io.h"
 #include "flexcloud/io/scan_map.h"
+#include "flexcloud/uncertainty/point_sigma.h"
 #include "flexcloud/warp/pose_rebuild.h"
 #include "test_util.h"
 
@@ -181,6 +182,58 @@ TEST(PoseRebuild, PointsThatNameNoPoseAreMovedRigidlyAndCounted) {
   EXPECT_LT((pointOf(c, 2) - rigid * p).norm(), 1e-9);
   EXPECT_LT((pointOf(c, 3) - rigid * p).norm(), 1e-9);
   EXPECT_TRUE(std::isnan(pointOf(c, 4).x()));
+}
+
+// With sigmas asked for, each rebuilt point takes the sigma of its own pose, the one nearest
+// its time (PointSigmaField::ofPose()); a point that names no pose, its cell's; a NaN point,
+// NaN. The poses' sigmas grow by 1 cm a pose: the pose before a point's own gives it at least
+// 4 mm less.
+TEST(PoseRebuild, EachPointTakesTheSigmaOfItsOwnPose) {
+  const Drive d;
+  const PoseCorrections corrections(d.slam, d.result, Eigen::Isometry3d::Identity());
+  PoseSigmas pose_sigmas;
+  for (int i = 0; i <= 10; ++i) {
+    pose_sigmas.h.push_back(0.05 + 0.01 * i);
+    pose_sigmas.v.push_back(0.1 + 0.02 * i);
+  }
+  std::vector<Eigen::Vector3d> src, dst;
+  for (double x : {0.0, 3000.0})
+    for (double y : {1000.0, 3000.0})
+      for (double z : {-100.0, 100.0}) src.emplace_back(x, y, z);
+  Affine34 identity = Affine34::Zero();
+  identity.leftCols<3>().setIdentity();
+  const RubberSheet sheet(src, src, identity);
+  const PointSigmaField field(d.result, pose_sigmas, sheet);
+  std::vector<Eigen::Vector3d> pts;
+  std::vector<double> times;
+  std::vector<int> own;
+  for (int i = 0; i < 10; ++i) {
+    for (const double after : {0.03, 0.07}) {  // nearer pose i, then pose i + 1
+      pts.push_back(isometry(d.slam[i]) * kBody);
+      times.push_back(d.slam[i].stamp + after);
+      own.push_back(after < 0.05 ? i : i + 1);
+    }
+  }
+  pts.push_back(pts[0]);
+  times.push_back(kNaN);
+  own.push_back(PointSigmaField::kNoPose);
+  pts.emplace_back(kNaN, kNaN, kNaN);
+  times.push_back(100.0);
+  pcl::PCLPointCloud2 c = cloudOf(pts, times, F::FLOAT64);
+  std::vector<float> out(2 * pts.size(), 0.0F);
+  const SigmaSink sink{&field, reinterpret_cast<std::uint8_t*>(out.data()), 2 * sizeof(float)};
+  const std::optional<PointPoseField> f = pointPoseField(c.fields, "time", "map");
+  rebuildPoints(c.data.data(), xyzLayout(c, "map"), PoseRebuild{*f, &corrections}, 2, "map",
+                neverCancelled(), sink);
+  for (std::size_t k = 0; k < own.size(); ++k) {
+    const PointSigma expected = field.ofPose(pointOf(c, k), own[k]);
+    EXPECT_NEAR(out[2 * k], expected.h, 1e-6) << "point " << k;
+    EXPECT_NEAR(out[2 * k + 1], expected.v, 1e-6) << "point " << k;
+    if (own[k] > 0) {
+      EXPECT_GT(out[2 * k], field.ofPose(pointOf(c, k), own[k] - 1).h + 0.004F) << "point " << k;
+    }
+  }
+  EXPECT_TRUE(std::isnan(out[2 * own.size()]));
 }
 
 TEST(PoseRebuild, TheFieldsThatNamePoses) {

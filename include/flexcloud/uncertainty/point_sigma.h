@@ -1,6 +1,7 @@
 #pragma once
 // How far each map point may lie from its true place: the sigma of the pose nearest to it (a
-// point is placed by the poses it was seen from), grown with its distance from that pose (a
+// point is placed by the poses it was seen from; in a map rebuilt from its points' poses, its
+// own pose's), grown with its distance from that pose (a
 // rotation error of the map about the vehicle moves a far point more: heading horizontally,
 // roll and pitch vertically and, for a point above or below the vehicle, horizontally), the
 // map's own scatter, and the strain of the sheet where the point lies: where the sheet has to
@@ -73,9 +74,18 @@ class PointSigmaField {
     combine(t.var_h, t.var_v, t.dh2, t.dz2, t.bend2, t.cap2, s.h, s.v);
     return s;
   }
-  /// The tetrahedron number that stands for a point moved rigidly with its own pose (a map
-  /// rebuilt from its points' poses, pose_rebuild.h): no strain of the sheet.
-  int rigidTet() const { return static_cast<int>(tet_terms_.size()) - 2; }
+  /// The sigma of a point at `enu` moved rigidly with pose `pose` (a map rebuilt from its
+  /// points' poses, pose_rebuild.h): that pose's, grown with the point's distance from it, no
+  /// strain of the sheet; a pose beyond the trajectory's (-1: the point names none) stands for
+  /// the pose nearest in plan.
+  PointSigma ofPose(const Eigen::Vector3d& enu, int pose) const {
+    PointSigma s;
+    const Eigen::Vector3f p = local(enu);
+    sigmasOfPoses(1, &p.x(), &p.y(), &p.z(), &pose, &s.h, &s.v);
+    return s;
+  }
+  /// Stands for a point that names no pose.
+  static constexpr int kNoPose = -1;
   /// A place about the grid's origin, in floats (metres to kilometres, to a millimetre).
   Eigen::Vector3f local(const Eigen::Vector3d& enu) const { return (enu - origin_).cast<float>(); }
   /// The terms of the sigma of a point at `p` about the grid's origin (local()), warped by
@@ -101,6 +111,9 @@ class PointSigmaField {
   /// (only the lookups go point by point).
   void sigmas(std::size_t n, const float* x, const float* y, const float* z, const int* tet,
               float* __restrict h, float* __restrict v) const;
+  /// The same for n <= kBatch points moved rigidly with poses `pose` (ofPose()).
+  void sigmasOfPoses(std::size_t n, const float* x, const float* y, const float* z, const int* pose,
+                     float* __restrict h, float* __restrict v) const;
   /// How far tetrahedron `tet` stretches the map; beyond the hull (-1), how far the outside
   /// transform is from a rotation.
   const TetStrain& strain(int tet) const {
@@ -162,6 +175,7 @@ class PointSigmaField {
   float last_x_ = 0.0F, last_y_ = 0.0F;  ///< the last cell's index a side, as floats
   std::vector<std::int32_t> nearest_;    ///< per cell, row by row
   std::vector<CellPose> cells_;          ///< the same, ready for at()
+  std::vector<CellPose> poses_;          ///< per pose, as a cell knows it
 };
 
 /// The sigmas of points warped one at a time, computed a batch at a time: the warp hands each
@@ -170,18 +184,22 @@ class PointSigmaField {
 /// with it, they made the warp 1.4x as slow, here about 1.2x; doc/BENCHMARKS.md).
 class PointSigmaBatch {
  public:
+  /// What add() is told of each point: the tetrahedron that warped it, or the pose it was
+  /// moved with (PointSigmaField::ofPose()).
+  enum class Moved { kBySheet, kWithPose };
   /// Writes where `sink` says (its field must be set).
-  explicit PointSigmaBatch(const SigmaSink& sink) : sink_(sink) {}
+  explicit PointSigmaBatch(const SigmaSink& sink, Moved moved = Moved::kBySheet)
+      : sink_(sink), moved_(moved) {}
   PointSigmaBatch(const PointSigmaBatch&) = delete;
   PointSigmaBatch& operator=(const PointSigmaBatch&) = delete;
   ~PointSigmaBatch() { flush(); }
 
-  /// Point `index`, now at `enu`, warped by tetrahedron `tet`: its sigmas are written by the
-  /// next flush() at the latest.
-  void add(const Eigen::Vector3d& enu, int tet, std::size_t index) {
+  /// Point `index`, now at `enu`, warped by tetrahedron `by` (or moved with pose `by`, as
+  /// constructed): its sigmas are written by the next flush() at the latest.
+  void add(const Eigen::Vector3d& enu, int by, std::size_t index) {
     const Eigen::Vector3f p = sink_.field->local(enu);
     x_[n_] = p.x(), y_[n_] = p.y(), z_[n_] = p.z();
-    tet_[n_] = tet;
+    by_[n_] = by;
     index_[n_] = index;
     if (++n_ == kSize) flush();
   }
@@ -191,9 +209,10 @@ class PointSigmaBatch {
  private:
   static constexpr std::size_t kSize = PointSigmaField::kBatch;
   SigmaSink sink_;
+  Moved moved_;
   std::size_t n_ = 0;
   float x_[kSize], y_[kSize], z_[kSize];  // about the field's origin
-  int tet_[kSize];
+  int by_[kSize];                         // tetrahedra or poses
   std::size_t index_[kSize];
 };
 

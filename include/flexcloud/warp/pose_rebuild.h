@@ -51,6 +51,8 @@ class PoseCorrections {
   /// correction turns a tenth of a degree between poses). `hint` is the last pose interval found
   /// (kept per thread: a scan's points share it). Returns false where t names no pose.
   bool atTime(double t, std::size_t& hint, Eigen::Matrix<double, 3, 4>& out) const;
+  /// The pose nearest in time to t, where atTime(t, hint, ...) named one and set `hint`.
+  int poseAt(double t, std::size_t hint) const;
   /// The correction of pose i; false where there is no such pose.
   bool atIndex(double i, Eigen::Matrix<double, 3, 4>& out) const;
 
@@ -86,8 +88,9 @@ std::vector<double> fieldValues(const std::uint8_t* data, std::size_t step, std:
 /// Moves the xyz of every point of a raw buffer of the given layout with its own pose's
 /// correction, on `threads` threads (0: all cores). Points that name no pose are moved by the
 /// rigid transform and counted as `outside`; NaN points stay as they are (`non_finite`). With
-/// `sigmas` set, each point's sigmas are those of a point moved rigidly with its pose (no
-/// strain). Throws Error("NAME: rebuild: cancelled") once cancelled.
+/// `sigmas` set, each point's sigmas are those of a point moved rigidly with its own pose (the
+/// nearest in time; PointSigmaField::ofPose()). Throws Error("NAME: rebuild: cancelled") once
+/// cancelled.
 WarpStats rebuildPoints(std::uint8_t* data, const XyzLayout& layout, const PoseRebuild& rebuild,
                         int threads, const std::string& name = "map",
                         const CancelToken& cancel = neverCancelled(), const SigmaSink& sigmas = {});

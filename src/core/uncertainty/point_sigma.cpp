@@ -86,17 +86,18 @@ PointSigmaField::PointSigmaField(const Trajectory& result, const PoseSigmas& sig
   };
   tet_terms_.push_back(terms(strain_.back()));
   for (std::size_t t = 0; t + 1 < strain_.size(); ++t) tet_terms_.push_back(terms(strain_[t]));
-  tet_terms_.push_back({0.0F, 0.0F});  // rigidTet(): no strain
   // Without the poses' sigmas nothing is known: every point's sigma is infinite.
   const bool known = sigmas.h.size() == result.size() && sigmas.v.size() == result.size();
   const double inf = std::numeric_limits<double>::infinity();
-  cells_.resize(nearest_.size());
-  for (std::size_t c = 0; c < nearest_.size(); ++c) {
-    const auto i = static_cast<std::size_t>(nearest_[c]);
+  for (std::size_t i = 0; i < positions_.size(); ++i) {
     const Eigen::Vector3d q = positions_[i] - origin_;
     const double h = known ? sigmas.h[i] : inf, v = known ? sigmas.v[i] : inf;
-    cells_[c] = {f(q.x()), f(q.y()), f(q.z()), f(h * h + model.scatter_h * model.scatter_h),
-                 f(v * v + model.scatter_v * model.scatter_v)};
+    poses_.push_back({f(q.x()), f(q.y()), f(q.z()), f(h * h + model.scatter_h * model.scatter_h),
+                      f(v * v + model.scatter_v * model.scatter_v)});
+  }
+  cells_.resize(nearest_.size());
+  for (std::size_t c = 0; c < nearest_.size(); ++c) {
+    cells_[c] = poses_[static_cast<std::size_t>(nearest_[c])];
   }
 }
 
@@ -175,10 +176,29 @@ void PointSigmaField::sigmas(std::size_t n, const float* x, const float* y, cons
   }
 }
 
+void PointSigmaField::sigmasOfPoses(std::size_t n, const float* x, const float* y, const float* z,
+                                    const int* pose, float* __restrict h,
+                                    float* __restrict v) const {
+  // A point's own pose is near the poses of the points before it (a few hundred kB of poses
+  // for a drive: in cache whatever the points' order); one that names no pose takes its cell's.
+  n = std::min(n, kBatch);
+  const auto poses = static_cast<std::uint32_t>(poses_.size());
+  for (std::size_t k = 0; k < n; ++k) {
+    const auto i = static_cast<std::uint32_t>(pose[k]);
+    const CellPose& c = i < poses ? poses_[i] : cells_[cellOf(x[k], y[k])];
+    const float dx = x[k] - c.x, dy = y[k] - c.y, dz = z[k] - c.z;
+    combine(c.var_h, c.var_v, bounded(dx * dx + dy * dy), bounded(dz * dz), 0.0F, 0.0F, h[k], v[k]);
+  }
+}
+
 void PointSigmaBatch::flush() {
   float h[kSize], v[kSize];
   const std::size_t n = n_;  // kept apart: the writes below could alias the member
-  sink_.field->sigmas(n, x_, y_, z_, tet_, h, v);
+  if (moved_ == Moved::kBySheet) {
+    sink_.field->sigmas(n, x_, y_, z_, by_, h, v);
+  } else {
+    sink_.field->sigmasOfPoses(n, x_, y_, z_, by_, h, v);
+  }
   for (std::size_t k = 0; k < n; ++k) {
     std::uint8_t* at = sink_.out + index_[k] * sink_.stride;
     std::memcpy(at, &h[k], sizeof(float));

@@ -134,6 +134,13 @@ bool PoseCorrections::atTime(double t, std::size_t& hint, Matrix34& out) const {
   return true;
 }
 
+int PoseCorrections::poseAt(double t, std::size_t hint) const {
+  const std::size_t n = stamps_.size();
+  if (n == 1 || t <= stamps_.front()) return 0;
+  if (t >= stamps_.back() || hint + 1 >= n) return static_cast<int>(n - 1);
+  return static_cast<int>(t - stamps_[hint] > stamps_[hint + 1] - t ? hint + 1 : hint);
+}
+
 std::string PoseCorrections::mismatch(const PointPoseField& field,
                                       const std::vector<double>& values) const {
   std::size_t finite = 0, named = 0;
@@ -175,8 +182,9 @@ class Rebuilder {
       : layout_(layout),
         rebuild_(rebuild),
         sigmas_(sigmas),
-        batch_(sigmas.field != nullptr ? std::make_unique<PointSigmaBatch>(sigmas) : nullptr),
-        rigid_tet_(sigmas.field != nullptr ? sigmas.field->rigidTet() : 0) {}
+        batch_(sigmas.field != nullptr
+                   ? std::make_unique<PointSigmaBatch>(sigmas, PointSigmaBatch::Moved::kWithPose)
+                   : nullptr) {}
 
   void run(std::uint8_t* data, std::size_t begin, std::size_t end, const CancelToken& cancel,
            WarpStats& s) {
@@ -193,19 +201,24 @@ class Rebuilder {
       if (!lookUp(rebuild_.field.read(pt))) ++s.outside;
       const Eigen::Vector3d q = m_.leftCols<3>() * p + m_.col(3);
       layout_.set(pt, q);
-      if (batch_) batch_->add(q, rigid_tet_, i);
+      if (batch_) batch_->add(q, pose_, i);
     }
     if (batch_) batch_->flush();
   }
 
  private:
-  /// Sets m_ to the correction the value names (rigid where it names no pose); false there.
+  /// Sets m_ to the correction the value names and pose_ to its pose (rigid and kNoPose where
+  /// it names none); false there.
   bool lookUp(double v) {
     const bool time = rebuild_.field.kind == PointPoseField::Kind::kTime;
     const double key = time ? std::round(v * 2000.0) : v;
     if (has_key_ && key == key_) return named_;
     const PoseCorrections& c = *rebuild_.corrections;
     named_ = time ? c.atTime(key / 2000.0, hint_, m_) : c.atIndex(v, m_);
+    if (batch_) {
+      pose_ = !named_ ? PointSigmaField::kNoPose
+                      : (time ? c.poseAt(key / 2000.0, hint_) : static_cast<int>(v));
+    }
     if (!named_) m_ = c.rigid().matrix().topRows<3>();
     has_key_ = std::isfinite(key);
     key_ = key;
@@ -217,8 +230,8 @@ class Rebuilder {
   const SigmaSink& sigmas_;
   /// The sigmas, a batch at a time (point_sigma.h), as the rigid move of each point's pose.
   std::unique_ptr<PointSigmaBatch> batch_;
-  int rigid_tet_;
   Matrix34 m_ = Matrix34::Zero();
+  int pose_ = PointSigmaField::kNoPose;
   bool has_key_ = false, named_ = false;
   double key_ = 0.0;
   std::size_t hint_ = 0;
@@ -251,11 +264,14 @@ WarpStats rebuildKeyframe(std::uint8_t* data, const XyzLayout& layout,
   Matrix34 c;
   const bool named = corrections.atTime(stamp, hint, c);
   if (!named) c = corrections.rigid().matrix().topRows<3>();
+  const int own = named ? corrections.poseAt(stamp, hint) : PointSigmaField::kNoPose;
   Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
   m.topRows<3>() = c;
   const Matrix34 moved = (m * pose.matrix()).topRows<3>();
   std::unique_ptr<PointSigmaBatch> batch;
-  if (sigmas.field != nullptr) batch = std::make_unique<PointSigmaBatch>(sigmas);
+  if (sigmas.field != nullptr) {
+    batch = std::make_unique<PointSigmaBatch>(sigmas, PointSigmaBatch::Moved::kWithPose);
+  }
   const std::size_t n = layout.points;
   const std::size_t stride = std::max<std::size_t>(1, n / 16);
   for (std::size_t i = 0; i < n; ++i) {
@@ -271,7 +287,7 @@ WarpStats rebuildKeyframe(std::uint8_t* data, const XyzLayout& layout,
     const Eigen::Vector3d q = moved.leftCols<3>() * p + moved.col(3);
     layout.set(pt, q);
     if (!named) ++s.outside;
-    if (batch) batch->add(q, sigmas.field->rigidTet(), i);
+    if (batch) batch->add(q, own, i);
   }
   return s;
 }
