@@ -109,28 +109,44 @@ TEST(MulranDrives, UrbanGnssIsBridgedAsRecorded) {
   }
 }
 
-// The pose sigmas with RTK GNSS: pooled, 85-99 % of the poses within 2.45 sigma_h (90.6 %),
-// at least 75 % on every drive (75.6-100 %). Where the clock is held at the speed profile, its
-// sigma holds what a SLAM's own lag moves that profile by (KAIST_03: 12.6 -> 89.5 %).
-TEST(MulranDrives, PoseSigmasCoverTheErrorsWithRtkGnss) {
-  const std::vector<std::string> dirs = test::findTruthDrives("mulran_lo", kDrives);
-  SKIP_WITHOUT_DRIVES(dirs, "mulran_lo");
+/// The pose sigmas of every drive with GNSS of `kind`: pooled, 85-99 % of the poses within
+/// 2.45 sigma_h and 1.96 sigma_v, at least 75 % on every drive.
+void expectSigmasCover(const std::vector<std::string>& dirs, const char* kind) {
   std::vector<study::CalibrationRow> rows;
   sim::SigmaCoverage pooled;
   for (const auto& dir : dirs) {
-    const study::TruthDrive d = study::loadTruthDrive(dir, "rtk");
+    const study::TruthDrive d = study::loadTruthDrive(dir, kind);
     const GeoreferenceResult r = georeference(d.input, Params{});
     const sim::SigmaCoverage c = study::sigmaCoverage(d, r);
     rows.push_back({d.name, c, r.sigma.median_h, study::scoreAgainstTruth(d, r).rmse});
     pooled += c;
-    EXPECT_GE(c.shareH(), 0.75) << d.name;
-    EXPECT_GE(c.shareV(), 0.75) << d.name;
+    EXPECT_GE(c.shareH(), 0.75) << d.name << " " << kind;
+    EXPECT_GE(c.shareV(), 0.75) << d.name << " " << kind;
   }
   study::printCalibrationRows(rows);
-  EXPECT_GE(pooled.shareH(), 0.85);
-  EXPECT_LE(pooled.shareH(), 0.99);
-  EXPECT_GE(pooled.shareV(), 0.85);
-  EXPECT_LE(pooled.shareV(), 0.99);
+  EXPECT_GE(pooled.shareH(), 0.85) << kind;
+  EXPECT_LE(pooled.shareH(), 0.99) << kind;
+  EXPECT_GE(pooled.shareV(), 0.85) << kind;
+  EXPECT_LE(pooled.shareV(), 0.99) << kind;
+}
+
+// With RTK GNSS: 90.7 % pooled horizontally, 75.6-100 % per drive. Where the clock is held at
+// the speed profile, its sigma holds what a SLAM's own lag moves that profile by (KAIST_03:
+// 12.6 -> 89.5 %).
+TEST(MulranDrives, PoseSigmasCoverTheErrorsWithRtkGnss) {
+  const std::vector<std::string> dirs = test::findTruthDrives("mulran_lo", kDrives);
+  SKIP_WITHOUT_DRIVES(dirs, "mulran_lo");
+  expectSigmasCover(dirs, "rtk");
+}
+
+// With urban GNSS (1 Hz, no std-dev): 87.0 % pooled horizontally, 76.8-93.8 % per drive. The
+// clock is held at the stamps as given on all but DCC_02 (true offsets 38-58 ms, within the
+// speed profiles' noise), and the along-track error it leaves counts where the fixes hide it
+// (DCC_03, KAIST_02, KAIST_03: 71.4, 78.0, 67.5 % without).
+TEST(MulranDrives, PoseSigmasCoverTheErrorsWithUrbanGnss) {
+  const std::vector<std::string> dirs = test::findTruthDrives("mulran_lo", kDrives);
+  SKIP_WITHOUT_DRIVES(dirs, "mulran_lo");
+  expectSigmasCover(dirs, "urban");
 }
 
 }  // namespace

@@ -127,6 +127,35 @@ TEST(PoseSigmas, GrowInGapsAndBeyondTheLastFix) {
   EXPECT_DOUBLE_EQ(s.worst.sigma_h, *std::max_element(s.h.begin(), s.h.end()));
 }
 
+// A clock held at the stamps as given (SigmaContext::held_clock_sigma, 50 ms at 10 m/s: 0.5 m
+// along the track) counts where the fixes are imprecise (0.5 m, one a second), whose noise hides
+// it, at most doubling the variance they leave; among RTK fixes (2 cm, ten a second), which would
+// show it, not at all.
+TEST(PoseSigmas, AClockHeldAtTheStampsCountsWhereTheFixesHideIt) {
+  const Trajectory t = straight(1001, 1.0);
+  std::mt19937 rng(7);
+  std::normal_distribution<double> n(0.0, 1.0);
+  for (const double std_dev : {0.5, 0.02}) {
+    std::vector<SigmaFix> fixes;
+    for (std::size_t i = 0; i<t.size(); i += std_dev> 0.1 ? 10 : 1) {
+      const Eigen::Vector3d e = std_dev * Eigen::Vector3d(n(rng), n(rng), n(rng));
+      fixes.push_back({t[i].stamp, t[i].position + e, std_dev, std_dev});
+    }
+    SigmaContext held;
+    held.held_clock_sigma = 0.05;
+    const PoseSigmas plain = poseSigmas(t, t, fixes), with = poseSigmas(t, t, fixes, held);
+    for (const std::size_t i : {100u, 500u, 900u}) {
+      if (std_dev > 0.1) {
+        EXPECT_GT(with.h[i], plain.h[i] + 0.005) << i;
+        EXPECT_LE(with.h[i], std::sqrt(2.0) * plain.h[i]) << i;
+      } else {
+        EXPECT_DOUBLE_EQ(with.h[i], plain.h[i]) << i;
+      }
+      EXPECT_DOUBLE_EQ(with.v[i], plain.v[i]) << i;
+    }
+  }
+}
+
 // A GNSS/INS at 10 Hz whose error wanders smoothly (3 cm per axis, over 20 s) beside 5 mm of
 // white noise, its receiver reporting 3 cm: the result follows the fixes and so their wander.
 // Read as white noise, a thousand fixes pin each pose down to a few millimetres, and fewer than

@@ -71,6 +71,10 @@ struct SigmaContext {
   /// The 1-sigma of an estimated clock offset, s (0: none estimated): the speed times it moves
   /// a pose along the track.
   double clock_sigma = 0.0;
+  /// Where the offset was held at the stamps as given (the profiles could not tell it from 0),
+  /// the 1-sigma it is known to, s: it counts where the fixes are imprecise, whose noise hides
+  /// the along-track error it makes (precise fixes show it in their local residuals).
+  double held_clock_sigma = 0.0;
   /// The GNSS antenna in the body frame, m: the fixes are the antenna's, the poses the body's.
   Eigen::Vector3d lever_arm = Eigen::Vector3d::Zero();
   /// The SLAM's white jitter from pose to pose, m per horizontal axis: in every fix's residual

@@ -251,8 +251,6 @@ void combine(const Trajectory& result, const Terms& terms, const SigmaContext& c
   const Trajectory* fused =
       context.fused != nullptr && context.fused->size() == result.size() ? context.fused : nullptr;
   for (std::size_t i = 0; i < result.size(); ++i) {
-    // The clock's error moves a pose along the track: one of the two horizontal axes.
-    const double clock = v[i] * context.clock_sigma;
     // What the sheet left of the fused trajectory adds in full.
     const Eigen::Vector3d sheet = fused != nullptr
                                       ? Eigen::Vector3d(result[i].position - (*fused)[i].position)
@@ -269,6 +267,12 @@ void combine(const Trajectory& result, const Terms& terms, const SigmaContext& c
     const double known_v = std::max(
         wv * wv * (kWalkV * kWalkV * terms.walk_v[i] + kScatterV * kScatterV * local.scatter_v2[i]),
         local.shared_v2[i]);
+    // The clock's error moves a pose along the track: one of the two horizontal axes. Held at
+    // the stamps as given, it hides in imprecise fixes' noise, but not beyond what they leave
+    // of the pose unknown (the variance at most doubled): more would show where the drive turns.
+    const double held = weightFor(local.std_h[i], 0.0, 1.0) *
+                        std::min(v[i] * context.held_clock_sigma, std::sqrt(2.0 * known_h));
+    const double clock = std::hypot(v[i] * context.clock_sigma, held);
     out.h.push_back(std::sqrt(known_h + kMeanResidualH * kMeanResidualH * local.mean_h2[i] +
                               sheet.head<2>().squaredNorm() / 2.0 + clock * clock / 2.0 +
                               jitter * jitter));
