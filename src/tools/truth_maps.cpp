@@ -166,14 +166,14 @@ MapScore scoreSheet(const DriveMap& m, const GeoreferenceResult& r) {
   return scoreMap(m, [&](const Eigen::Vector3d& p, std::size_t) { return r.sheet->transform(p); });
 }
 
-SigmaCover sheetSigmaCover(const DriveMap& m, const GeoreferenceResult& r, const Params& p) {
-  const PointSigmaField field(r.rubbersheet, r.sigma, *r.sheet, pointSigmaModel(p));
+/// The share of the points within 2.45 sigma_h of their truth horizontally, by band, and within
+/// 1.96 sigma_v vertically, each point's place and sigma given by `placed` (point index).
+SigmaCover sigmaCover(
+    const DriveMap& m,
+    const std::function<std::pair<Eigen::Vector3d, PointSigma>(std::size_t)>& placed) {
   std::size_t in_h[kBands] = {0, 0, 0}, of[kBands] = {0, 0, 0}, in_v = 0;
   for (std::size_t k = 0; k < m.slam.size(); ++k) {
-    const Eigen::Vector3d q = m.slam[k].cast<float>().cast<double>();
-    const RubberSheet::Location loc = r.sheet->locate(q);
-    const Eigen::Vector3d enu = RubberSheet::apply(r.sheet->affineAt(loc), q);
-    const PointSigma s = field.at(enu, loc.outside ? -1 : loc.tet);
+    const auto [enu, s] = placed(k);
     const Eigen::Vector3d e = enu - m.truth[k];
     in_v += std::abs(e.z()) <= 1.96 * s.v;
     for (int b = 0; b < kBands; ++b) {
@@ -192,6 +192,16 @@ SigmaCover sheetSigmaCover(const DriveMap& m, const GeoreferenceResult& r, const
   return c;
 }
 
+SigmaCover sheetSigmaCover(const DriveMap& m, const GeoreferenceResult& r, const Params& p) {
+  const PointSigmaField field(r.rubbersheet, r.sigma, *r.sheet, pointSigmaModel(p));
+  return sigmaCover(m, [&](std::size_t k) {
+    const Eigen::Vector3d q = m.slam[k].cast<float>().cast<double>();
+    const RubberSheet::Location loc = r.sheet->locate(q);
+    const Eigen::Vector3d enu = RubberSheet::apply(r.sheet->affineAt(loc), q);
+    return std::make_pair(enu, field.at(enu, loc.outside ? -1 : loc.tet));
+  });
+}
+
 MapScore scoreOwnPose(const DriveMap& m, const TruthDrive& d, const GeoreferenceResult& r) {
   const Trajectory& fused = r.fusion ? r.fusion->poses : r.rubbersheet;
   return scoreMap(m, [&](const Eigen::Vector3d& p, std::size_t k) {
@@ -200,30 +210,63 @@ MapScore scoreOwnPose(const DriveMap& m, const TruthDrive& d, const Georeference
   });
 }
 
-MapScore scoreRebuilt(const DriveMap& m, const TruthDrive& d, const GeoreferenceResult& r) {
+namespace {
+
+/// The map saved with per-point time and rebuilt as the tool does it, with its point sigmas
+/// where `field` is given.
+struct RebuiltMap {
   struct Row {
     float x, y, z, pad;
     double time;
+    float sigma_h, sigma_v;
   };
-  std::vector<Row> rows(m.slam.size());
-  for (std::size_t k = 0; k < rows.size(); ++k) {
-    const Eigen::Vector3f p = m.slam[k].cast<float>();
-    rows[k] = {p.x(), p.y(), p.z(), 0.0F, d.input.poses[m.pose[k]].stamp};
-  }
+  std::vector<Row> rows;
   XyzLayout layout;
+
+  Eigen::Vector3d at(std::size_t k) const {
+    return layout.get(reinterpret_cast<const std::uint8_t*>(rows.data()) + k * sizeof(Row));
+  }
+};
+
+RebuiltMap rebuildMap(const DriveMap& m, const TruthDrive& d, const GeoreferenceResult& r,
+                      const PointSigmaField* field) {
+  using Row = RebuiltMap::Row;
+  RebuiltMap out;
+  out.rows.resize(m.slam.size());
+  for (std::size_t k = 0; k < out.rows.size(); ++k) {
+    const Eigen::Vector3f p = m.slam[k].cast<float>();
+    out.rows[k] = {p.x(), p.y(), p.z(), 0.0F, d.input.poses[m.pose[k]].stamp, 0.0F, 0.0F};
+  }
+  XyzLayout& layout = out.layout;
   layout.offset[0] = offsetof(Row, x), layout.offset[1] = offsetof(Row, y);
   layout.offset[2] = offsetof(Row, z);
   layout.point_step = sizeof(Row);
-  layout.points = rows.size();
+  layout.points = out.rows.size();
   PoseRebuild rebuild;
   rebuild.field.name = "time";
   rebuild.field.offset = offsetof(Row, time);
   const PoseCorrections corrections(r.poses, resultPoses(r), r.T_enu_map);
   rebuild.corrections = &corrections;
-  auto* data = reinterpret_cast<std::uint8_t*>(rows.data());
-  rebuildPoints(data, layout, rebuild, 0);
-  return scoreMap(m, [&](const Eigen::Vector3d&, std::size_t k) {
-    return layout.get(data + k * layout.point_step);
+  auto* data = reinterpret_cast<std::uint8_t*>(out.rows.data());
+  SigmaSink sink;
+  if (field != nullptr) sink = {field, data + offsetof(Row, sigma_h), sizeof(Row)};
+  rebuildPoints(data, layout, rebuild, 0, "map", neverCancelled(), sink);
+  return out;
+}
+
+}  // namespace
+
+MapScore scoreRebuilt(const DriveMap& m, const TruthDrive& d, const GeoreferenceResult& r) {
+  const RebuiltMap map = rebuildMap(m, d, r, nullptr);
+  return scoreMap(m, [&](const Eigen::Vector3d&, std::size_t k) { return map.at(k); });
+}
+
+SigmaCover rebuiltSigmaCover(const DriveMap& m, const TruthDrive& d, const GeoreferenceResult& r,
+                             const Params& p) {
+  const PointSigmaField field(r.rubbersheet, r.sigma, *r.sheet, pointSigmaModel(p));
+  const RebuiltMap map = rebuildMap(m, d, r, &field);
+  return sigmaCover(m, [&](std::size_t k) {
+    return std::make_pair(map.at(k), PointSigma{map.rows[k].sigma_h, map.rows[k].sigma_v});
   });
 }
 
@@ -246,7 +289,9 @@ void printTruthMapRows(const std::vector<std::string>& dirs, int control_points,
       const SigmaCover c = sheetSigmaCover(m, r, p);
       std::printf(" %.1f / %.1f / %.1f | %.1f |\n", c.band_h[0], c.band_h[1], c.band_h[2], c.v);
       printScoreRow(d.name, "its points' time (rebuilt)", scoreRebuilt(m, d, r));
-      std::printf(" - | - |\n");
+      const SigmaCover own = rebuiltSigmaCover(m, d, r, p);
+      std::printf(" %.1f / %.1f / %.1f | %.1f |\n", own.band_h[0], own.band_h[1], own.band_h[2],
+                  own.v);
       std::fflush(stdout);
     }
   }

@@ -68,6 +68,9 @@ MapScore scoreOwnPose(const DriveMap& m, const TruthDrive& d, const Georeference
 /// The map saved as a LiDAR SLAM saves it with per-point time (x, y, z float32, time float64,
 /// the scan's odometry stamp) and rebuilt from it (pose_rebuild.h), as the tool moves it.
 MapScore scoreRebuilt(const DriveMap& m, const TruthDrive& d, const GeoreferenceResult& r);
+/// The point sigmas of that rebuilt map (each point's own pose's) against its errors.
+SigmaCover rebuiltSigmaCover(const DriveMap& m, const TruthDrive& d, const GeoreferenceResult& r,
+                             const Params& p);
 
 /// The table (markdown) of the sheet's and the own poses' map errors on each drive and GNSS
 /// kind in `dirs`, with the defaults and `sets` applied.
