@@ -80,10 +80,10 @@ std::size_t placeBodyScans(pcl::PCLPointCloud2& cloud, const std::vector<Pose>& 
   return beyond;
 }
 
-std::string scanFrameKind(const std::string& scans, const std::string& poses,
-                          const std::string& body, const std::string& name) {
-  if (scans.empty() || poses.empty() || scans == poses) return "";
-  if (body.empty() || scans == body) return "body";
+bool scansInBodyFrame(const std::string& scans, const std::string& poses, const std::string& body,
+                      const std::string& name) {
+  if (scans.empty() || poses.empty() || scans == poses) return false;
+  if (body.empty() || scans == body) return true;
   throw Error(name + ": the scans are in frame '" + scans + "', neither the poses' ('" + poses +
               "': registered scans) nor their body's ('" + body +
               "': scans as the LiDAR saw them)");

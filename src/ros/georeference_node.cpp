@@ -495,8 +495,7 @@ sensor_msgs::PointCloud2ConstPtr GeoreferenceNode::scanMap(const GeoreferenceRes
   DriveCollector::Scans scans = collector_.scans();
   if (!scans.cloud) return nullptr;
   const std::string poses = collector_.mapFrame();
-  if (scanFrameKind(scans.frame, poses, collector_.bodyFrame(), nh_.resolveName("scans")) ==
-      "body") {
+  if (scansInBodyFrame(scans.frame, poses, collector_.bodyFrame(), nh_.resolveName("scans"))) {
     placeBodyScans(*scans.cloud, r.poses);  // as the LiDAR saw them: placed by the SLAM's poses
   }
   sensor_msgs::PointCloud2Ptr msg(new sensor_msgs::PointCloud2);

@@ -329,9 +329,8 @@ struct BagScans {
 BagScans bagScans(const Options& o, const BagSummary& s, const DriveCollector& collector) {
   const DriveCollector::Scans scans = collector.scans();
   if (!scans.cloud) throw Error(o.bag + ": no scan on " + s.scan_topic);
-  const std::string kind = scanFrameKind(scans.frame, collector.mapFrame(), collector.bodyFrame(),
-                                         o.bag + ": " + s.scan_topic);
-  return {scans.cloud, kind == "body"};
+  return {scans.cloud, scansInBodyFrame(scans.frame, collector.mapFrame(), collector.bodyFrame(),
+                                        o.bag + ": " + s.scan_topic)};
 }
 
 /// Writes the scans' map, in the SLAM's map frame, to `path`.

@@ -52,6 +52,17 @@ class Tools : public ::testing::Test {
     return compareClouds(readPcd(o + "/map_georeferenced.pcd"), truth,
                          [](const Eigen::Vector3d& p) { return p; });
   }
+  /// A map rebuilt from its points' poses against the sheet's map of the same points, both
+  /// against their truth: all `points` there, closer in RMSE by a twentieth, and no further at
+  /// the worst point (that is the fused pose's).
+  static void expectCloserThanTheSheet(const char* what, const ErrorStats& rebuilt,
+                                       const ErrorStats& warped, std::size_t points) {
+    std::printf("%s rebuilt: RMSE %.4f MAX %.4f m; the sheet: RMSE %.4f MAX %.4f m\n", what,
+                rebuilt.rmse, rebuilt.max, warped.rmse, warped.max);
+    EXPECT_EQ(rebuilt.count, points) << what;
+    EXPECT_LT(rebuilt.rmse, 0.95 * warped.rmse) << what;
+    EXPECT_LE(rebuilt.max, warped.max) << what;
+  }
   /// A drive of its own into `drive`, simulate_drive's options `args`; whether it was written.
   static bool simulate(const std::string& drive, const std::string& args) {
     return sh(bin("simulate_drive") + " --out " + drive + " " + args).code == 0;
@@ -226,12 +237,8 @@ TEST_F(Tools, AKeyframeDumpIsTheTrajectoryAndItsMapIsRebuilt) {
                           drive + "/slam_trajectory.txt --map " + drive + "/map.pcd" + datum() +
                           " --set report_png=false --out " + out("dump_sheet"));
   ASSERT_EQ(sheet.code, 0) << sheet.output;
-  const ErrorStats rebuilt = error(out("dump_out")), warped = error(out("dump_sheet"));
-  std::printf("keyframes rebuilt: RMSE %.4f MAX %.4f m; the sheet: RMSE %.4f MAX %.4f m\n",
-              rebuilt.rmse, rebuilt.max, warped.rmse, warped.max);
-  EXPECT_EQ(rebuilt.count, 100000u);
-  EXPECT_LT(rebuilt.rmse, 0.95 * warped.rmse);
-  EXPECT_LE(rebuilt.max, warped.max);
+  const ErrorStats rebuilt = error(out("dump_out"));
+  expectCloserThanTheSheet("keyframes", rebuilt, error(out("dump_sheet")), 100000);
   // The bag's fixes (its odometry left unread) give the same map.
   const Result bag = sh(bin("georeference") + " -q --bag " + drive + "/drive.bag" + tail +
                         " --out " + out("dump_bag"));
@@ -281,12 +288,8 @@ TEST_F(Tools, ABagsRegisteredScansMakeTheMapRebuiltFromTheirPoses) {
   ASSERT_EQ(sheet.code, 0) << sheet.output;
   const pcl::PCLPointCloud2 truth = readPcd(drive + "/truth_map.pcd");
   const auto error = [&](const std::string& o) { return againstTruth(o, truth); };
-  const ErrorStats rebuilt = error(out("scans_out")), warped = error(out("scans_sheet"));
-  std::printf("scans rebuilt: RMSE %.4f MAX %.4f m; the sheet: RMSE %.4f MAX %.4f m\n",
-              rebuilt.rmse, rebuilt.max, warped.rmse, warped.max);
-  EXPECT_EQ(rebuilt.count, 100000u);
-  EXPECT_LT(rebuilt.rmse, 0.95 * warped.rmse);
-  EXPECT_LE(rebuilt.max, warped.max);
+  const ErrorStats rebuilt = error(out("scans_out"));
+  expectCloserThanTheSheet("scans", rebuilt, error(out("scans_sheet")), 100000);
   // The same scans as the LiDAR saw them, in the body's frame: placed by the SLAM's poses first.
   const std::string body = out("body_scans");
   ASSERT_TRUE(simulate(body,

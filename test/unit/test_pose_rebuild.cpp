@@ -434,10 +434,10 @@ TEST(ScanMap, ScansInTheBodysFrameArePlacedByTheirPoses) {
   EXPECT_TRUE(std::isnan(pointOf(c, 1).x()));
   EXPECT_LT((pointOf(c, 2) - isometry(d.slam[6]) * kBody).norm(), 1e-9);
   EXPECT_LT((pointOf(c, 4) - isometry(d.slam[10]) * kBody).norm(), 1e-9);  // the last pose's
-  EXPECT_EQ(scanFrameKind("map", "map", "base_link", "/scans"), "");
-  EXPECT_EQ(scanFrameKind("base_link", "map", "base_link", "/scans"), "body");
-  EXPECT_EQ(scanFrameKind("velodyne", "map", "", "/scans"), "body");
-  EXPECT_EQ(test::errorOf([] { scanFrameKind("velodyne", "map", "base_link", "/scans"); }),
+  EXPECT_FALSE(scansInBodyFrame("map", "map", "base_link", "/scans"));
+  EXPECT_TRUE(scansInBodyFrame("base_link", "map", "base_link", "/scans"));
+  EXPECT_TRUE(scansInBodyFrame("velodyne", "map", "", "/scans"));
+  EXPECT_EQ(test::errorOf([] { scansInBodyFrame("velodyne", "map", "base_link", "/scans"); }),
             "/scans: the scans are in frame 'velodyne', neither the poses' ('map': registered "
             "scans) nor their body's ('base_link': scans as the LiDAR saw them)");
 }

@@ -43,11 +43,11 @@ class ScanMap {
 /// nearest end pose, and named by the rebuild as naming no pose.
 std::size_t placeBodyScans(pcl::PCLPointCloud2& cloud, const std::vector<Pose>& slam);
 
-/// Which frame registered scans must be in, or may be in as body-frame scans: "" where `scans`
-/// (the scans' frame) is `poses` (the poses' frame: registered), "body" where it is `body` (the
+/// Whether scans in frame `scans` are as the LiDAR saw them, in the odometry's body frame: false
+/// where it is `poses` (the poses' frame: registered scans), true where it is `body` (the
 /// odometry's child frame, or any other where that is unknown); throws Error naming `name` and
 /// the three frames otherwise.
-std::string scanFrameKind(const std::string& scans, const std::string& poses,
-                          const std::string& body, const std::string& name);
+bool scansInBodyFrame(const std::string& scans, const std::string& poses, const std::string& body,
+                      const std::string& name);
 
 }  // namespace flexcloud
