@@ -20,6 +20,24 @@ Eigen::Isometry3d isometry(const Pose& p) {
   return t;
 }
 
+/// The body's axes (bodyAxes()) turned to the nearest of its own axes: a section's points lie
+/// along the axis the body's left is nearest to and the one its up is nearest to. KITTI's poses
+/// move along +y: points "beside" along y lay ahead and behind on the road. Poses moving along
+/// +x or -x with z up keep x, y, z.
+struct SectionAxes {
+  Eigen::Vector3d left, up;
+};
+SectionAxes sectionAxes(const Trajectory& slam) {
+  const BodyAxes a = bodyAxes(slam);
+  Eigen::Index ahead = 0, up = 0;
+  a.ahead.cwiseAbs().maxCoeff(&ahead);
+  Eigen::Vector3d rest = a.up.cwiseAbs();
+  rest(ahead) = -1.0;
+  rest.maxCoeff(&up);
+  const Eigen::Index left = 3 - ahead - up;
+  return {Eigen::Vector3d::Unit(left), std::copysign(1.0, a.up(up)) * Eigen::Vector3d::Unit(up)};
+}
+
 }  // namespace
 
 std::vector<PointPair> besidePoints(const ControlPointSelection& cps, const Trajectory& slam,
@@ -37,6 +55,7 @@ std::vector<PointPair> besidePoints(const ControlPointSelection& cps, const Traj
   const double stagger = 0.25 * size;
   const std::vector<double> arc = arcLength(positionsOf(slam));
   const PositionGrid grid(slam, std::max(5.0, 0.5 * size));
+  const SectionAxes axes = sectionAxes(slam);
   double last = -std::numeric_limits<double>::infinity();
   int section = 0;
   for (std::size_t c = 0; c < cps.points.size(); ++c) {
@@ -49,8 +68,10 @@ std::vector<PointPair> besidePoints(const ControlPointSelection& cps, const Traj
     last = arc[cp.pose_index];
     const double z = (section++ % 2 == 0) ? stagger : -stagger;
     std::vector<Eigen::Vector3d> offsets;
-    if (beside > 0.0) offsets = {{0.0, beside, z}, {0.0, -beside, -z}};
-    if (above > 0.0) offsets.push_back({0.0, 0.0, above});
+    if (beside > 0.0) {
+      offsets = {beside * axes.left + z * axes.up, -beside * axes.left - z * axes.up};
+    }
+    if (above > 0.0) offsets.push_back(above * axes.up);
     const Eigen::Isometry3d s = isometry(slam[cp.pose_index]);
     const Eigen::Isometry3d f = isometry(fused[cp.pose_index]);
     for (const auto& full : offsets) {
