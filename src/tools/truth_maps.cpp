@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <random>
 #include <tuple>
@@ -212,6 +213,57 @@ MapScore scoreOwnPose(const DriveMap& m, const TruthDrive& d, const Georeference
 
 namespace {
 
+/// The SLAM's poses by horizontal cell of kNearestCell: the pose nearest to a point.
+class NearestPose {
+ public:
+  explicit NearestPose(const Trajectory& poses) : poses_(poses) {
+    for (std::size_t i = 0; i < poses.size(); ++i) cells_[cell(poses[i].position)].push_back(i);
+  }
+  std::size_t of(const Eigen::Vector3d& q) const {
+    const auto [cx, cy] = cell(q);
+    std::size_t best = 0;
+    double best_d = std::numeric_limits<double>::infinity();
+    // Rings of cells outward, until the ring lies beyond the nearest pose found.
+    for (long ring = 0; ring <= kMaxRings && !(best_d < (ring - 1) * kNearestCell); ++ring) {
+      for (long dx = -ring; dx <= ring; ++dx) {
+        for (long dy = -ring; dy <= ring; ++dy) {
+          if (std::max(std::abs(dx), std::abs(dy)) != ring) continue;
+          const auto it = cells_.find({cx + dx, cy + dy});
+          if (it == cells_.end()) continue;
+          for (std::size_t i : it->second) {
+            const double d = (poses_[i].position - q).norm();
+            if (d < best_d) best_d = d, best = i;
+          }
+        }
+      }
+    }
+    return best;
+  }
+
+ private:
+  static constexpr double kNearestCell = 10.0;  // m
+  static constexpr long kMaxRings = 100;
+  static std::pair<long, long> cell(const Eigen::Vector3d& p) {
+    return {static_cast<long>(std::floor(p.x() / kNearestCell)),
+            static_cast<long>(std::floor(p.y() / kNearestCell))};
+  }
+  const Trajectory& poses_;
+  std::map<std::pair<long, long>, std::vector<std::size_t>> cells_;
+};
+
+}  // namespace
+
+MapScore scoreNearestPose(const DriveMap& m, const TruthDrive& d, const GeoreferenceResult& r) {
+  const Trajectory& fused = r.fusion ? r.fusion->poses : r.rubbersheet;
+  const NearestPose nearest(d.input.poses);
+  return scoreMap(m, [&](const Eigen::Vector3d& p, std::size_t) {
+    const std::size_t i = nearest.of(p);
+    return Eigen::Vector3d(isometryOf(fused[i]) * (isometryOf(d.input.poses[i]).inverse() * p));
+  });
+}
+
+namespace {
+
 /// The map saved with per-point time and rebuilt as the tool does it, with its point sigmas
 /// where `field` is given.
 struct RebuiltMap {
@@ -288,6 +340,9 @@ void printTruthMapRows(const std::vector<std::string>& dirs, int control_points,
       printScoreRow(d.name, "the sheet", scoreSheet(m, r));
       const SigmaCover c = sheetSigmaCover(m, r, p);
       std::printf(" %.1f / %.1f / %.1f | %.1f |\n", c.band_h[0], c.band_h[1], c.band_h[2], c.v);
+      printScoreRow(d.name, "its nearest pose (no warp by place does better)",
+                    scoreNearestPose(m, d, r));
+      std::printf(" - | - |\n");
       printScoreRow(d.name, "its points' time (rebuilt)", scoreRebuilt(m, d, r));
       const SigmaCover own = rebuiltSigmaCover(m, d, r, p);
       std::printf(" %.1f / %.1f / %.1f | %.1f |\n", own.band_h[0], own.band_h[1], own.band_h[2],

@@ -65,6 +65,12 @@ SigmaCover sheetSigmaCover(const DriveMap& m, const GeoreferenceResult& r, const
 /// map's poses allow).
 MapScore scoreOwnPose(const DriveMap& m, const TruthDrive& d, const GeoreferenceResult& r);
 
+/// Each point moved with the correction of the SLAM pose nearest to it (3D, in the SLAM's map):
+/// what a plain map (x, y, z alone) allows at best, since a warp by place knows no more of a
+/// point than where the SLAM put it. Where the SLAM holds two passes apart, a point seen from
+/// one pass but nearer to the other takes the other's correction.
+MapScore scoreNearestPose(const DriveMap& m, const TruthDrive& d, const GeoreferenceResult& r);
+
 /// The map saved as a LiDAR SLAM saves it with per-point time (x, y, z float32, time float64,
 /// the scan's odometry stamp) and rebuilt from it (pose_rebuild.h), as the tool moves it.
 MapScore scoreRebuilt(const DriveMap& m, const TruthDrive& d, const GeoreferenceResult& r);
