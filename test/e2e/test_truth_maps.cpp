@@ -62,8 +62,8 @@ TEST(TruthMaps, ALidarsMapAgainstItsTruthWithRtkGnss) {
     // Each point moved with its nearest pose's correction: the best a warp by place can do. No
     // better than its own pose's; on 01 (a motorway no pass comes back to) as good.
     const study::MapScore nearest = study::scoreNearestPose(m, d, r);
-    std::printf("%s: each point's nearest pose, away from revisits %.3f / %.3f m\n",
-                d.name.c_str(), nearest.away_h.rmse, nearest.away_v.rmse);
+    std::printf("%s: each point's nearest pose, away from revisits %.3f / %.3f m\n", d.name.c_str(),
+                nearest.away_h.rmse, nearest.away_v.rmse);
     EXPECT_GE(nearest.away_h.rmse, 0.95 * own.away_h.rmse) << d.name;
     if (std::string(rec.drive) == "01") EXPECT_LE(nearest.away_h.rmse, 1.1 * own.away_h.rmse);
     // Saved with per-point time and rebuilt: as good as each point's own pose, everywhere.

@@ -80,7 +80,8 @@ TEST(BesidePoints, LieAcrossTheRoadWhenTheBodyDrivesAlongY) {
 
 TEST(BesidePoints, LieAcrossTheRoadFromACameraFrame) {
   // A camera's frame: z ahead, x right, y down.
-  const Eigen::Matrix3d body_to_world = (Eigen::Matrix3d() << 0, 0, 1, -1, 0, 0, 0, -1, 0).finished();
+  const Eigen::Matrix3d body_to_world =
+      (Eigen::Matrix3d() << 0, 0, 1, -1, 0, 0, 0, -1, 0).finished();
   const Drive d = straightDrive(Eigen::Quaterniond(body_to_world));
   expectAcrossAndAbove(d, besidePoints(d.cps, d.slam, d.slam, 25.0, 10.0));
 }
