@@ -8,7 +8,7 @@
 #include <limits>
 #include <map>
 #include <random>
-#include <tuple>
+#include <utility>
 
 #include "flexcloud/input/trajectory.h"
 #include "flexcloud/param_table.h"
@@ -48,19 +48,25 @@ Eigen::Vector3d scanOffset(const BodyAxes& a, std::mt19937_64& rng) {
   return along * a.ahead + across * a.left + height * a.up;
 }
 
+/// The cell of a grid in plan (cells of `size` m) that holds p.
+using PlanCell = std::pair<long, long>;
+PlanCell planCell(const Eigen::Vector3d& p, double size) {
+  return {static_cast<long>(std::floor(p.x() / size)), static_cast<long>(std::floor(p.y() / size))};
+}
+
 /// Positions by cell, with the stamp of each: whether a position of another pass lies near.
 class PassGrid {
  public:
   PassGrid(const std::vector<Eigen::Vector3d>& at, const std::vector<double>& stamp) {
     for (std::size_t i = 0; i < at.size(); ++i) {
-      if (at[i].allFinite()) cells_[cell(at[i])].push_back({at[i], stamp[i]});
+      if (at[i].allFinite()) cells_[planCell(at[i], kRevisitRadius)].push_back({at[i], stamp[i]});
     }
   }
   bool otherPassNear(const Eigen::Vector3d& q, double stamp) const {
-    const auto c = cell(q);
-    for (int dx = -1; dx <= 1; ++dx) {
-      for (int dy = -1; dy <= 1; ++dy) {
-        const auto it = cells_.find({std::get<0>(c) + dx, std::get<1>(c) + dy});
+    const auto [cx, cy] = planCell(q, kRevisitRadius);
+    for (long dx = -1; dx <= 1; ++dx) {
+      for (long dy = -1; dy <= 1; ++dy) {
+        const auto it = cells_.find({cx + dx, cy + dy});
         if (it == cells_.end()) continue;
         for (const auto& [p, t] : it->second) {
           if (std::abs(t - stamp) > kOtherPass && (p - q).head<2>().norm() < kRevisitRadius) {
@@ -73,11 +79,7 @@ class PassGrid {
   }
 
  private:
-  static std::tuple<long, long> cell(const Eigen::Vector3d& p) {
-    return {static_cast<long>(std::floor(p.x() / kRevisitRadius)),
-            static_cast<long>(std::floor(p.y() / kRevisitRadius))};
-  }
-  std::map<std::tuple<long, long>, std::vector<std::pair<Eigen::Vector3d, double>>> cells_;
+  std::map<PlanCell, std::vector<std::pair<Eigen::Vector3d, double>>> cells_;
 };
 
 Spread spreadOf(std::vector<double> e) {
@@ -217,10 +219,12 @@ namespace {
 class NearestPose {
  public:
   explicit NearestPose(const Trajectory& poses) : poses_(poses) {
-    for (std::size_t i = 0; i < poses.size(); ++i) cells_[cell(poses[i].position)].push_back(i);
+    for (std::size_t i = 0; i < poses.size(); ++i) {
+      cells_[planCell(poses[i].position, kNearestCell)].push_back(i);
+    }
   }
   std::size_t of(const Eigen::Vector3d& q) const {
-    const auto [cx, cy] = cell(q);
+    const auto [cx, cy] = planCell(q, kNearestCell);
     std::size_t best = 0;
     double best_d = std::numeric_limits<double>::infinity();
     // Rings of cells outward, until the ring lies beyond the nearest pose found.
@@ -243,12 +247,8 @@ class NearestPose {
  private:
   static constexpr double kNearestCell = 10.0;  // m
   static constexpr long kMaxRings = 100;
-  static std::pair<long, long> cell(const Eigen::Vector3d& p) {
-    return {static_cast<long>(std::floor(p.x() / kNearestCell)),
-            static_cast<long>(std::floor(p.y() / kNearestCell))};
-  }
   const Trajectory& poses_;
-  std::map<std::pair<long, long>, std::vector<std::size_t>> cells_;
+  std::map<PlanCell, std::vector<std::size_t>> cells_;
 };
 
 }  // namespace

@@ -21,9 +21,9 @@ Eigen::Isometry3d isometry(const Pose& p) {
 }
 
 /// The body's axes (bodyAxes()) turned to the nearest of its own axes: a section's points lie
-/// along the axis the body's left is nearest to and the one its up is nearest to. KITTI's poses
-/// move along +y: points "beside" along y lay ahead and behind on the road. Poses moving along
-/// +x or -x with z up keep x, y, z.
+/// along the axis the body's left is nearest to and the one its up is nearest to, not at fixed
+/// body y and z (a body driving along y, as KITTI's odometry does, would put them on the road
+/// ahead and behind). Poses moving along +x or -x with z up keep y and z.
 struct SectionAxes {
   Eigen::Vector3d left, up;
 };
