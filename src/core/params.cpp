@@ -91,7 +91,8 @@ ParamTable<P> makeTable() {
                  "Largest factor the fusion raises the slam_*_noise by where the GNSS says the "
                  "SLAM drifts more (1: never)"),
       realRow<P>("lever_arm_x", &P::lever_arm_x, 0.0, -10, 10, "m",
-                 "GNSS antenna in the body frame of the poses, forward"),
+                 "GNSS antenna in the body frame of the poses, forward (x, y, z all 0: the "
+                 "fusion estimates the antenna's horizontal offset; the poses stay the antenna's)"),
       realRow<P>("lever_arm_y", &P::lever_arm_y, 0.0, -10, 10, "m",
                  "GNSS antenna in the body frame of the poses, left"),
       realRow<P>("lever_arm_z", &P::lever_arm_z, 0.0, -10, 10, "m",

@@ -76,6 +76,11 @@ constexpr double kHeightApart = 3.0;
 /// whose height drifts parts from good fixes so. False where either is not finite.
 bool apartInHeightAlone(const Eigen::Vector3d& error, const Eigen::Vector3d& sigma);
 
+/// m: an antenna offset from the poses' origin (estimated where no lever arm is given) beyond
+/// this is applied and told of; a smaller one is held at 0 (KITTI's LiDAR odometry, its GNSS at
+/// the LiDAR: 0.05-0.15 m).
+constexpr double kNotableAntenna = 0.5;
+
 struct FusionResult {
   /// The fused pose (ENU, body frame) at every pose of the input, in the same order.
   Trajectory poses;
@@ -101,6 +106,11 @@ struct FusionResult {
   bool time_offset_held = false;
   double time_offset_from_positions = 0.0;
   Eigen::Vector3d lever_arm = Eigen::Vector3d::Zero();  ///< applied, body frame, m
+  /// Where no lever arm was given: the antenna's offset from the poses' origin the drive shows
+  /// (body forward, left; m). The poses are then the antenna's, as without the estimate.
+  Eigen::Vector2d antenna_offset = Eigen::Vector2d::Zero();
+  bool antenna_offset_estimated = false;
+  double antenna_offset_sigma = 0.0;  ///< m, 1-sigma of its forward part (body x)
   /// The 1-sigma std-devs given to fixes without one: estimated from the residuals (NaN when
   /// every fix had its own).
   double estimated_std_h = 0.0;

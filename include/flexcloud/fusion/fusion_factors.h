@@ -50,7 +50,10 @@ struct DriftFactor {
 };
 
 /// A fix: the antenna of the pose at the fix's stamp, reached from keyframe a by the SLAM's
-/// motion (scaled by a's scale error), the lever arm, and the clock offset dt times the velocity.
+/// motion (scaled by a's scale error), the lever arm, and the clock offset dt times the
+/// velocity; where no lever arm was given, the offset the fusion estimates along the body's
+/// forward and left axes, on the horizontal position alone (the tilt it would act on in height
+/// is the SLAM's, not known well enough to take a height from).
 struct GnssFactor {
   /// SLAM translation from keyframe a to the fix's stamp, in a's frame.
   Eigen::Vector3d offset = Eigen::Vector3d::Zero();
@@ -60,18 +63,30 @@ struct GnssFactor {
   Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
   Eigen::Vector3d fix = Eigen::Vector3d::Zero();
   const Eigen::Vector3d* sigma = nullptr;  ///< the std-dev it is weighted with now
+  /// The body's forward and left axes at the fix's stamp in a's frame: the estimated lever
+  /// arm (body x, y) reaches the antenna along them.
+  Eigen::Matrix<double, 3, 2> axes = Eigen::Matrix<double, 3, 2>::Zero();
 
-  /// The vector in keyframe a's frame that reaches the antenna from a's position.
+  /// The vector in keyframe a's frame that reaches the antenna from a's position, the
+  /// estimated offset aside.
   template <typename T>
   Vec3T<T> local(const T* sa, const T* dt) const {
     return (T(1) + sa[0]) * offset.cast<T>() + antenna.cast<T>() + velocity.cast<T>() * dt[0];
   }
 
+  /// The estimated offset in a's frame.
   template <typename T>
-  bool operator()(const T* qa, const T* pa, const T* sa, const T* dt, T* r) const {
+  Vec3T<T> reach(const T* lever) const {
+    return axes.cast<T>() * Eigen::Matrix<T, 2, 1>(lever[0], lever[1]);
+  }
+
+  template <typename T>
+  bool operator()(const T* qa, const T* pa, const T* sa, const T* dt, const T* lever, T* r) const {
     const Eigen::Map<const Eigen::Quaternion<T>> Qa(qa);
     const Eigen::Map<const Vec3T<T>> Pa(pa);
-    const Vec3T<T> at = Pa + Qa * local(sa, dt);
+    Vec3T<T> level = Qa * reach(lever);
+    level.z() = T(0);
+    const Vec3T<T> at = Pa + Qa * local(sa, dt) + level;
     for (int i = 0; i < 3; ++i) r[i] = (at[i] - T(fix[i])) / T((*sigma)[i]);
     return true;
   }
@@ -103,7 +118,7 @@ class DriftCost : public ceres::SizedCostFunction<4, 3, 1, 3, 1> {
   DriftFactor f_;
 };
 
-class GnssCost : public ceres::SizedCostFunction<3, 4, 3, 1, 1> {
+class GnssCost : public ceres::SizedCostFunction<3, 4, 3, 1, 1, 2> {
  public:
   explicit GnssCost(const GnssFactor& f) : f_(f) {}
   bool Evaluate(double const* const* x, double* r, double** jacobians) const override;
@@ -114,7 +129,7 @@ class GnssCost : public ceres::SizedCostFunction<3, 4, 3, 1, 1> {
 
 /// A fix's horizontal part alone (GnssCost's first two rows): for a fix whose height is left
 /// out.
-class GnssLevelCost : public ceres::SizedCostFunction<2, 4, 3, 1, 1> {
+class GnssLevelCost : public ceres::SizedCostFunction<2, 4, 3, 1, 1, 2> {
  public:
   explicit GnssLevelCost(const GnssFactor& f) : whole_(f) {}
   bool Evaluate(double const* const* x, double* r, double** jacobians) const override;

@@ -75,6 +75,9 @@ struct SigmaContext {
   /// the 1-sigma it is known to, s: it counts where the fixes are imprecise, whose noise hides
   /// the along-track error it makes (precise fixes show it in their local residuals).
   double held_clock_sigma = 0.0;
+  /// The 1-sigma of an estimated antenna offset from the poses' origin along the track, m (0:
+  /// none estimated): it trades with the clock offset, and moves every pose along the track.
+  double antenna_sigma = 0.0;
   /// The GNSS antenna in the body frame, m: the fixes are the antenna's, the poses the body's.
   Eigen::Vector3d lever_arm = Eigen::Vector3d::Zero();
   /// The SLAM's white jitter from pose to pose, m per horizontal axis: in every fix's residual

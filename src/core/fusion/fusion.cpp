@@ -37,6 +37,7 @@ FusionResult Fusion::run(const Eigen::Isometry3d& T_enu_map) {
       std::make_shared<GemanMcClure>(kImpreciseLoss * options_.outlier_threshold, true);
   solveStages();
   adaptSlamNoise();
+  fitAntenna();
   restamp();
   holdClockWhereTheSpeedsDisagree();
   leaveOutHeights();
@@ -129,6 +130,7 @@ void Fusion::makeFactor(Fix& f, std::size_t k) const {
   f.keyframe = k;
   f.factor.offset = at.translation();
   f.factor.antenna = at.linear() * out_.lever_arm;
+  f.factor.axes = at.linear().leftCols<2>();
   f.factor.velocity = velocity;
   f.factor.fix = local(f);
   f.gap = gapSpread(poses_, t);

@@ -10,10 +10,7 @@
 
 namespace flexcloud {
 namespace fusion_graph {
-namespace {
 
-/// m/s: the spread of the horizontal velocities across the drive's main direction (the smaller
-/// axis of their covariance).
 double crossSpeedSpread(const Trajectory& poses) {
   std::vector<Eigen::Vector2d> v;
   for (std::size_t i = 1; i < poses.size(); ++i) {
@@ -30,8 +27,6 @@ double crossSpeedSpread(const Trajectory& poses) {
   return std::sqrt(
       std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(cov).eigenvalues()(0)));
 }
-
-}  // namespace
 
 void Fusion::estimateClock() {
   std::vector<GnssPoint> taking_part;

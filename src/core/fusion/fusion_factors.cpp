@@ -125,14 +125,16 @@ bool DriftCost::Evaluate(double const* const* x, double* r, double** jacobians) 
 }
 
 bool GnssCost::Evaluate(double const* const* x, double* r, double** jacobians) const {
-  f_(x[0], x[1], x[2], x[3], r);
+  f_(x[0], x[1], x[2], x[3], x[4], r);
   if (jacobians == nullptr) return true;
   const Eigen::Quaterniond q = quaternion(x[0]);
   const Eigen::DiagonalMatrix<double, 3> k(f_.sigma->cwiseInverse());
   const Mat3 rot = rotationMatrix(q);
   if (jacobians[0] != nullptr) {
     JacobianMap<3, 4> j(jacobians[0]);
-    j = k * rotationJacobian(q, f_.local(x[2], x[3]));
+    Eigen::Matrix<double, 3, 4> level = rotationJacobian(q, f_.reach(x[4]));
+    level.row(2).setZero();
+    j = k * (rotationJacobian(q, f_.local(x[2], x[3])) + level);
   }
   if (jacobians[1] != nullptr) {
     JacobianMap<3, 3> j(jacobians[1]);
@@ -146,21 +148,27 @@ bool GnssCost::Evaluate(double const* const* x, double* r, double** jacobians) c
     JacobianMap<3, 1> j(jacobians[3]);
     j = k * (rot * f_.velocity);
   }
+  if (jacobians[4] != nullptr) {
+    Eigen::Map<Eigen::Matrix<double, 3, 2, Eigen::RowMajor>> j(jacobians[4]);
+    Eigen::Matrix<double, 3, 2> level = rot * f_.axes;
+    level.row(2).setZero();
+    j = k * level;
+  }
   return true;
 }
 
 bool GnssLevelCost::Evaluate(double const* const* x, double* r, double** jacobians) const {
-  constexpr int kSizes[4] = {4, 3, 1, 1};
+  constexpr int kSizes[5] = {4, 3, 1, 1, 2};
   double whole_r[3];
-  double j0[12], j1[9], j2[3], j3[3];
-  double* whole_j[4] = {j0, j1, j2, j3};
+  double j0[12], j1[9], j2[3], j3[3], j4[6];
+  double* whole_j[5] = {j0, j1, j2, j3, j4};
   if (jacobians != nullptr) {
-    for (int b = 0; b < 4; ++b) whole_j[b] = jacobians[b] != nullptr ? whole_j[b] : nullptr;
+    for (int b = 0; b < 5; ++b) whole_j[b] = jacobians[b] != nullptr ? whole_j[b] : nullptr;
   }
   if (!whole_.Evaluate(x, whole_r, jacobians != nullptr ? whole_j : nullptr)) return false;
   r[0] = whole_r[0], r[1] = whole_r[1];
   if (jacobians == nullptr) return true;
-  for (int b = 0; b < 4; ++b) {  // row-major: the first two rows are the first 2 * size values
+  for (int b = 0; b < 5; ++b) {  // row-major: the first two rows are the first 2 * size values
     if (jacobians[b] != nullptr) std::copy(whole_j[b], whole_j[b] + 2 * kSizes[b], jacobians[b]);
   }
   return true;

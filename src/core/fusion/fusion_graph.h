@@ -38,6 +38,15 @@ constexpr double kUnknownStdStart = 1.0;  // m, first guess for fixes without a 
 constexpr double kStiffSlam = 1.5;
 constexpr int kNoiseRounds = 2;
 constexpr double kMostNoiseStep = 2.0;
+// m: the prior on the antenna's offset from the poses' origin where none was given; it keeps
+// the offset near 0 where the drive cannot show it (a straight, where it moves every fix as a
+// shift of the whole track does).
+constexpr double kLeverSigma = 2.0;
+// An estimated offset is kept where it is told from 0 by this many times its sigma along the
+// direction of travel, where a clock offset would move the fixes as it does. The six MulRan
+// drives (antenna 1.3-2.1 m from the LiDAR) tell it by 18-308 sigma, the KITTI drives (0.1 m
+// at most) by 0.3-14.
+constexpr double kLeverTold = 5.0;
 constexpr double kMinOffsetSigma = 0.005;    // s, tightest the speed profiles hold the offset
 constexpr double kTiltSigma = 2.0 * kDeg;    // the keyframes' mean tilt about the start's
 constexpr double kRestampTolerance = 0.001;  // s: a remainder beyond restamps the fixes
@@ -102,6 +111,10 @@ Eigen::Isometry3d slamAt(const Trajectory& poses, double t);
 /// in time, up to half their distance apart across a long gap (a SLAM that keeps a pose every
 /// few metres leaves a gap of seconds at every stop, and the car braked and started in it).
 double gapSpread(const Trajectory& poses, double t);
+
+/// m/s: the spread of the horizontal velocities across the drive's main direction (the smaller
+/// axis of their covariance); below kLeastTurn the drive is a straight.
+double crossSpeedSpread(const Trajectory& poses);
 
 /// Keyframes every `spacing` metres of SLAM path (grown so there are at most kMaxKeyframes),
 /// the first and last pose always; returns pose indices.
@@ -324,6 +337,22 @@ class Fusion {
   /// profiles' sigma.
   double fittedOffsetSigma();
 
+  /// The 1-sigma of the antenna's offset `along` a direction of the body (unit, x y) at the
+  /// solution, everything else (the clock offset among it) free: Ceres's covariance of the
+  /// block, the fixes weighed with their own std-devs.
+  double antennaSigma(const Eigen::Vector2d& along);
+
+  /// Where no lever arm was given, the drive turns and its speed profile shows the clock: the
+  /// antenna's horizontal offset from the poses' origin, fitted with the rest from the solution
+  /// at 0. Kept where it is beyond kNotableAntenna and told from 0 by kLeverTold sigmas (along
+  /// the track a clock offset moves the fixes as it does: only changes of speed tell them apart),
+  /// and the stages solved again from the start with it; else the solution at 0 stands.
+  void fitAntenna();
+
+  /// The stages again from the rigid start and the std-devs' first guesses (the SLAM's noise
+  /// and the antenna's offset as they stand).
+  void solveFromStart();
+
   /// An offset the profiles knew loosely (ClockEstimate::loose): the fit of positions decides it
   /// (observable), but on a straight (kLeastTurn) or where a run before found the fit's offset
   /// not told from 0 or a SLAM's own lag (loose_fit_); the reason then says which.
@@ -392,8 +421,12 @@ class Fusion {
   Vec3 origin_ = Vec3::Zero();  ///< ENU of the graph's origin
   /// The rigid start: T_enu_map, in the graph's frame.
   Eigen::Isometry3d start_ = Eigen::Isometry3d::Identity();
-  double shift_ = 0.0;          ///< s added to every fix's stamp before its factor is made
-  double dt_ = 0.0;             ///< s, the fusion's estimate on top of shift_
+  double shift_ = 0.0;  ///< s added to every fix's stamp before its factor is made
+  double dt_ = 0.0;     ///< s, the fusion's estimate on top of shift_
+  /// m, the antenna's offset from the poses' origin along the body's forward and left axes,
+  /// estimated where no lever arm was given (estimate_lever_).
+  double lever_[2] = {0.0, 0.0};
+  bool estimate_lever_ = false;
   double offset_sigma_ = kInf;  ///< s, 1-sigma of shift_ + dt_
   ClockOffsetEstimate clock_;
   double unknown_h_ = kUnknownStdStart, unknown_v_ = kUnknownStdStart;

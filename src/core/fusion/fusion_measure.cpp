@@ -64,6 +64,8 @@ void Fusion::collect() {
     out_.estimated_std_h = out_.estimated_std_v = std::numeric_limits<double>::quiet_NaN();
   }
   out_.time_offset = shift_ + dt_;
+  out_.antenna_offset = Eigen::Vector2d(lever_[0], lever_[1]);
+  out_.antenna_offset_estimated = estimate_lever_;
   out_.time_offset_estimated = clock_.observable;
   out_.time_offset_from_speed = out_.clock.speed.offset;
   out_.time_offset_speed_sigma = out_.clock.speed.sigma;
@@ -80,9 +82,13 @@ void Fusion::fusedPoses() {
     Eigen::Isometry3d rel = key.slam.inverse() * isometry(poses_[i]);
     rel.translation() *= 1.0 + key.s;
     const Eigen::Isometry3d t = keyframePose(key) * rel;
+    // Where the fusion estimated the antenna's offset, the pose is the antenna's (with the
+    // body's orientation): with no lever arm given, the antenna is the poses' origin.
+    Vec3 level = t.linear() * Vec3(lever_[0], lever_[1], 0.0);
+    level.z() = 0.0;
     Pose& p = out_.poses[i];
     p.stamp = poses_[i].stamp;
-    p.position = t.translation() + origin_;
+    p.position = t.translation() + level + origin_;
     p.orientation = Eigen::Quaterniond(t.linear()).normalized();
   }
 }

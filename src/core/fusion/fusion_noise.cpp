@@ -27,12 +27,16 @@ void Fusion::adaptSlamNoise() {
     // GNSS that are smooth (multipath, which no roughness shows) as of the SLAM's.
     out_.slam_noise_scale = std::min(most, out_.slam_noise_scale * std::min(stiff, kMostNoiseStep));
     noise_ = noiseOf(options_, out_.slam_noise_scale);
-    makeKeyframes(start_);
-    dt_ = 0.0;
-    unknown_h_ = start_unknown_h_, unknown_v_ = start_unknown_v_;
-    for (auto& f : fixes_) f.own = sigmaOf(f, unknown_h_, unknown_v_);
-    solveStages();
+    solveFromStart();
   }
+}
+
+void Fusion::solveFromStart() {
+  makeKeyframes(start_);
+  dt_ = 0.0;
+  unknown_h_ = start_unknown_h_, unknown_v_ = start_unknown_v_;
+  for (auto& f : fixes_) f.own = sigmaOf(f, unknown_h_, unknown_v_);
+  solveStages();
 }
 
 void Fusion::measureUnknownWhite() {

@@ -21,6 +21,14 @@ std::unique_ptr<ceres::Problem> Fusion::makeProblem(std::size_t stride) {
   problem->AddResidualBlock(
       new ceres::AutoDiffCostFunction<ZeroPrior, 1, 1>(new ZeroPrior{1, 0.05}), nullptr, &k0.s);
   addTiltPrior(*problem);
+  problem->AddParameterBlock(lever_, 2);
+  if (estimate_lever_) {
+    problem->AddResidualBlock(
+        new ceres::AutoDiffCostFunction<ZeroPrior, 2, 2>(new ZeroPrior{2, kLeverSigma}), nullptr,
+        lever_);
+  } else {
+    problem->SetParameterBlockConstant(lever_);
+  }
   problem->AddParameterBlock(&dt_, 1);
   if (out_.time_offset_held) {
     problem->SetParameterBlockConstant(&dt_);
@@ -44,9 +52,9 @@ std::unique_ptr<ceres::Problem> Fusion::makeProblem(std::size_t stride) {
                                : out_.unknown_white.x()) >= kPreciseStd;
     ceres::LossFunction* loss = f.imprecise ? loss_imprecise_.get() : loss_.get();
     if (f.level_only) {
-      problem->AddResidualBlock(new GnssLevelCost(f.factor), loss, k.q, k.p, &k.s, &dt_);
+      problem->AddResidualBlock(new GnssLevelCost(f.factor), loss, k.q, k.p, &k.s, &dt_, lever_);
     } else {
-      problem->AddResidualBlock(new GnssCost(f.factor), loss, k.q, k.p, &k.s, &dt_);
+      problem->AddResidualBlock(new GnssCost(f.factor), loss, k.q, k.p, &k.s, &dt_, lever_);
     }
   }
   return problem;
@@ -98,7 +106,7 @@ void Fusion::polish() {
 double Fusion::squaredResidual(const Fix& f) const {
   const Keyframe& k = keyframes_[f.keyframe];
   double r[3];
-  f.factor(k.q, k.p, &k.s, &dt_, r);
+  f.factor(k.q, k.p, &k.s, &dt_, lever_, r);
   return r[0] * r[0] + r[1] * r[1] + (f.level_only ? 0.0 : r[2] * r[2]);
 }
 
@@ -175,7 +183,7 @@ bool Fusion::clampOffset() {
 Vec3 Fusion::residualOf(const Fix& f) const {
   const Keyframe& k = keyframes_[f.keyframe];
   double r[3];
-  f.factor(k.q, k.p, &k.s, &dt_, r);
+  f.factor(k.q, k.p, &k.s, &dt_, lever_, r);
   return Vec3(r[0], r[1], r[2]).cwiseProduct(f.sigma);
 }
 

@@ -272,7 +272,8 @@ void combine(const Trajectory& result, const Terms& terms, const SigmaContext& c
     // of the pose unknown (the variance at most doubled): more would show where the drive turns.
     const double held = weightFor(local.std_h[i], 0.0, 1.0) *
                         std::min(v[i] * context.held_clock_sigma, std::sqrt(2.0 * known_h));
-    const double clock = std::hypot(v[i] * context.clock_sigma, held);
+    const double clock =
+        std::hypot(std::hypot(v[i] * context.clock_sigma, held), context.antenna_sigma);
     out.h.push_back(std::sqrt(known_h + kMeanResidualH * kMeanResidualH * local.mean_h2[i] +
                               sheet.head<2>().squaredNorm() / 2.0 + clock * clock / 2.0 +
                               jitter * jitter));
