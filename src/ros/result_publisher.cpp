@@ -39,6 +39,11 @@ flexcloud::Result toResultMsg(const NodeResult* r, bool success, const std::stri
     m.lever_arm.x = g.fusion->lever_arm.x();
     m.lever_arm.y = g.fusion->lever_arm.y();
     m.lever_arm.z = g.fusion->lever_arm.z();
+    m.antenna_offset_estimated = g.fusion->antenna_offset_estimated;
+    if (g.fusion->antenna_offset_estimated) {
+      m.antenna_offset.x = g.fusion->antenna_offset.x();
+      m.antenna_offset.y = g.fusion->antenna_offset.y();
+    }
     m.estimated_std_h = g.fusion->estimated_std_h;
     m.estimated_std_v = g.fusion->estimated_std_v;
     m.slam_noise_scale = g.fusion->slam_noise_scale;
@@ -92,6 +97,8 @@ flexcloud::Georeference::Response toResponse(const flexcloud::Result& msg) {
   res.time_offset = msg.time_offset;
   res.lever_arm = msg.lever_arm;
   res.lever_arm_source = msg.lever_arm_source;
+  res.antenna_offset_estimated = msg.antenna_offset_estimated;
+  res.antenna_offset = msg.antenna_offset;
   res.estimated_std_h = msg.estimated_std_h;
   res.estimated_std_v = msg.estimated_std_v;
   res.slam_noise_scale = msg.slam_noise_scale;

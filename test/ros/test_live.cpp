@@ -152,6 +152,7 @@ TEST_F(Live, TopicsInAccurateMapOutTfAndMarkersToo) {
   EXPECT_NEAR(r.lever_arm.x, kLeverArm.x(), 1e-9);  // from TF
   EXPECT_NEAR(r.lever_arm.z, kLeverArm.z(), 1e-9);
   EXPECT_EQ(r.lever_arm_source, "tf base_link -> gnss");
+  EXPECT_FALSE(r.antenna_offset_estimated);  // a lever arm given is taken as it is
   // How far from the truth, read first: the simulated RTK drive's sigmas are centimetres.
   EXPECT_EQ(r.method, "fusion");
   EXPECT_GT(r.sigma_h_median, 0.001);
@@ -689,6 +690,9 @@ TEST_F(Live, WithoutTheLeverArmsTfTheParametersApplyAndTheResultSaysSo) {
       0u)
       << r.lever_arm_source;
   EXPECT_NEAR(r.lever_arm.x, 0.0, 1e-9);
+  std::printf("no lever arm given: antenna offset %s (%.3f, %.3f) m\n",
+              r.antenna_offset_estimated ? "estimated" : "not estimated", r.antenna_offset.x,
+              r.antenna_offset.y);
   ros::WallDuration(1.0).sleep();  // the log on its way
   const std::lock_guard<std::mutex> lock(told_mutex);
   ASSERT_EQ(told.size(), 1u) << "the missing TF is told once, not on every run";
