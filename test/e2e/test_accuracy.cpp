@@ -3,6 +3,10 @@
 // the published method on the same drives.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <string>
+#include <vector>
+
 #include "flexcloud/georeference.h"
 #include "flexcloud/sim/scenarios.h"
 #include "flexcloud/sim/truth_metrics.h"
@@ -152,6 +156,14 @@ TEST(AccuracyMore, AntennaOffsetEstimatedWhereNoLeverArmIsGiven) {
     EXPECT_NEAR(fusion.time_offset, -0.5, 0.01) << seed;
     EXPECT_LE(e.rmse, kSlack * 0.011) << seed;  // recorded 0.009 m, as with it given
     EXPECT_EQ(fusion.lever_arm, Eigen::Vector3d::Zero());
+    const std::vector<std::string> warnings = resultWarnings(f.result, Params{}, nullptr);
+    EXPECT_EQ(std::count_if(warnings.begin(), warnings.end(),
+                            [](const std::string& w) {
+                              return w.rfind("lever arm: the drive puts the GNSS antenna at x 1.",
+                                             0) == 0;
+                            }),
+              1)
+        << seed;
   }
   Params given;
   given.lever_arm_x = 1.2;
