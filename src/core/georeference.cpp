@@ -970,7 +970,7 @@ constexpr double kHeldClockShare = 0.5;
 constexpr double kAntennaSystematic = 0.08;
 
 /// SigmaContext::antenna_sigma: 0 where none was estimated.
-double antennaSigma(const GeoreferenceResult& r) {
+double estimatedAntennaSigma(const GeoreferenceResult& r) {
   if (!r.fusion || r.method != Method::kFusion || !r.fusion->antenna_offset_estimated) return 0.0;
   return std::hypot(r.fusion->antenna_offset_sigma, kAntennaSystematic);
 }
@@ -1142,7 +1142,7 @@ GeoreferenceResult georeference(const DriveInput& input, const Params& given,
   sigma_context.fused = r.fusion && r.method == Method::kFusion ? &r.fusion->poses : nullptr;
   sigma_context.clock_sigma = estimatedClockSigma(r);
   sigma_context.held_clock_sigma = heldClockSigma(r);
-  sigma_context.antenna_sigma = antennaSigma(r);
+  sigma_context.antenna_sigma = estimatedAntennaSigma(r);
   sigma_context.lever_arm = r.fusion ? r.fusion->lever_arm : lever;
   sigma_context.jitter = &r.jitter_left;
   sigma_context.slam_white = r.jitter.seen ? r.jitter.white : 0.0;

@@ -175,7 +175,7 @@ TEST(AccuracyMore, AntennaOffsetEstimatedWhereNoLeverArmIsGiven) {
 /// in a fit of positions the drift passed for a clock offset (0.08 s, 1 m along the track);
 /// the speed profiles show none, so none is estimated. Nor does it pass for an antenna's offset
 /// along the track, which moves the fixes as a clock offset does (0.56-1.14 m at 3.4-7.3 sigma
-/// before the offset was left to drives whose speed shows the clock).
+/// before the offset was left to drives whose clock offset is estimated).
 TEST(AccuracyMore, AWanderingSlamHeadingDoesNotPassForAClockOffset) {
   for (std::uint64_t seed : {1, 2, 3}) {
     const sim::SimDrive d = sim::simulateDrive(sim::scenario("open_rtk_drifting", seed, 50000));

@@ -46,8 +46,8 @@ double Fusion::antennaSigma(const Eigen::Vector2d& along) {
 void Fusion::fitAntenna() {
   // On a straight an antenna's offset moves every fix as a shift of the whole track does; along
   // the track it moves them as a clock offset does, which only a varying speed tells apart:
-  // where the speed profile cannot show the clock, a SLAM's shape error in the turns reads as an
-  // offset (open_rtk_drifting, a SLAM whose rotation wanders: 0.56-1.14 m, at 3.4-7.3 sigma).
+  // where the profiles leave the clock unestimated, a SLAM's shape error in the turns reads as
+  // an offset (open_rtk_drifting, a SLAM whose rotation wanders: 0.56-1.14 m, at 3.4-7.3 sigma).
   if (!options_.lever_arm.isZero() || !clock_.observable || crossSpeedSpread(poses_) < kLeastTurn)
     return;
   const std::vector<Keyframe> held = keyframes_;
@@ -68,6 +68,7 @@ void Fusion::fitAntenna() {
   }
   estimate_lever_ = false;
   lever_[0] = lever_[1] = 0.0;
+  out_.antenna_offset_sigma = 0.0;
   keyframes_ = held;
   dt_ = dt;
 }
