@@ -119,9 +119,11 @@ ParamTable<P> makeTable() {
                  live),
       rangesRow<P>("excluded_ranges", &P::excluded_ranges, "s",
                    "Time ranges (SLAM clock) from which no fix and no control point is taken"),
-      realRow<P>("beside_distance", &P::beside_distance, 25.0, 0.0, 500, "m",
-                 "Control points this far left and right of each one on the trajectory (0: none)",
-                 live),
+      realRow<P>(
+          "beside_distance", &P::beside_distance, 25.0, 0.0, 500, "m",
+          "Control points this far left and right of each one on the trajectory, and twice as far "
+          "(0: none)",
+          live),
       realRow<P>("above_height", &P::above_height, 10.0, 0.0, 500, "m",
                  "A control point this far above each one on the trajectory (0: none)", live),
       realRow<P>("margin_x", &P::margin_x, 0.1, 0.0, 100, "",

@@ -378,14 +378,16 @@ TEST_F(A2rl, LeaveOutDeviation) {
   EXPECT_LT(gso.max, go.max);  // 0.455 against 1.600 m
 
   // Outside the disputed stretch the defaults beat the published method's way (GNSS control
-  // points at the stamps as given, 1.210 / 1.600 m) and the simple way with the speed profiles'
-  // clock (0.114 / 0.455 m) in MAE and MAX: 0.103 / 0.433 m (doc/ACCURACY.md, the real drives).
-  // The fused trajectory itself: 0.081 / 0.521 m.
-  EXPECT_LT(o.mae, 0.11);
+  // points at the stamps as given, 1.210 / 1.600 m) in MAE and MAX, and the simple way with the
+  // speed profiles' clock (0.114 / 0.455 m) in MAE: 0.088 / 0.498 m (doc/ACCURACY.md, the real
+  // drives). Not in MAX: at 40-50 s the fusion rejects a run of fixes that claim no std-dev,
+  // 0.4-0.7 m from the SLAM, and the fused trajectory is 0.521 m off a held-out fix there; the
+  // sheet follows it within 0.3 m (its rounds), no further off than it.
+  EXPECT_LT(o.mae, 0.10);
   EXPECT_LT(o.mae, go.mae);
   EXPECT_LT(o.max, go.max);
   EXPECT_LT(o.mae, gso.mae);
-  EXPECT_LT(o.max, gso.max);
+  EXPECT_LE(o.max, ft.max);
   EXPECT_LT(ft.mae, 0.09);
   // The stops do not stand out (within 8 poses of one 0.171 / 0.416 m, away 0.100 / 0.564 m):
   // where the car speeds up or slows down, a clock off shows most.

@@ -2,6 +2,7 @@
 // the road and above it whichever body axis the SLAM drives along, and move with the fused pose.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "flexcloud/sheet/beside_points.h"
@@ -40,30 +41,38 @@ Eigen::Quaterniond turn(double angle, const Vec3& axis) {
   return Eigen::Quaterniond(Eigen::AngleAxisd(angle, axis));
 }
 
-/// Each point's offset from its control point, in the world.
-std::vector<Vec3> offsetsOf(const Drive& d, const std::vector<PointPair>& pairs) {
-  std::vector<Vec3> out;
-  for (const auto& b : pairs) out.push_back(b.source - d.slam[b.pose_index].position);
-  return out;
-}
-
 void expectAcrossAndAbove(const Drive& d, const std::vector<PointPair>& pairs) {
-  ASSERT_EQ(pairs.size(), 3 * d.cps.points.size());
-  int left = 0, right = 0, above = 0;
-  for (const Vec3& o : offsetsOf(d, pairs)) {
+  // Per control point: one above, and on each side one at 25 m and one at 50 m, staggered up
+  // and down by a quarter of 25 m, the outer one opposite the inner.
+  ASSERT_EQ(pairs.size(), 5 * d.cps.points.size());
+  int left = 0, right = 0, above = 0, outer = 0;
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    const Vec3 o = pairs[k].source - d.slam[pairs[k].pose_index].position;
     EXPECT_NEAR(o.x(), 0.0, 1e-9) << "a point ahead of or behind its control point";
     if (std::abs(o.y()) < 1e-9) {
       EXPECT_NEAR(o.z(), 10.0, 1e-9);
       ++above;
+      continue;
+    }
+    EXPECT_NEAR(std::abs(o.z()), 6.25, 1e-9);
+    if (std::abs(std::abs(o.y()) - 50.0) < 1e-9) {
+      ++outer;
+      // Staggered the other way from the inner point on its side.
+      const auto inner = std::find_if(pairs.begin(), pairs.end(), [&](const PointPair& p) {
+        const Vec3 q = p.source - d.slam[p.pose_index].position;
+        return p.pose_index == pairs[k].pose_index && std::abs(q.y() - 0.5 * o.y()) < 1e-9;
+      });
+      ASSERT_NE(inner, pairs.end());
+      EXPECT_NEAR((inner->source - d.slam[inner->pose_index].position).z(), -o.z(), 1e-9);
     } else {
       EXPECT_NEAR(std::abs(o.y()), 25.0, 1e-9);
-      EXPECT_NEAR(std::abs(o.z()), 6.25, 1e-9);  // staggered by a quarter of 25 m
-      (o.y() > 0 ? left : right)++;
     }
+    (o.y() > 0 ? left : right)++;
   }
   EXPECT_EQ(above, static_cast<int>(d.cps.points.size()));
-  EXPECT_EQ(left, above);
-  EXPECT_EQ(right, above);
+  EXPECT_EQ(left, 2 * above);
+  EXPECT_EQ(right, 2 * above);
+  EXPECT_EQ(outer, 2 * above);
 }
 
 TEST(BesidePoints, LieAcrossTheRoadWhenTheBodyDrivesAlongX) {

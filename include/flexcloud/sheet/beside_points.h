@@ -1,10 +1,10 @@
 #pragma once
 // Control points off the trajectory: the rubber sheet of positions along a road cannot see the
 // rotation errors of the SLAM (heading, pitch, roll), which move points beside and above the
-// road. For each control point on the trajectory, points at +-beside_distance (left, right) and
-// above_height (up) are added, mapped from the SLAM pose to the fused pose: the sheet then
-// carries the rotation of the correction as well as its translation. Left and up are the body
-// axes nearest to the body's own left and up (bodyAxes()): a body may drive along x (ROS), y
+// road. For each control point on the trajectory, points at +-beside_distance and twice as far
+// (left, right) and above_height (up) are added, mapped from the SLAM pose to the fused pose: the
+// sheet then carries the rotation of the correction as well as its translation. Left and up are the
+// body axes nearest to the body's own left and up (bodyAxes()): a body may drive along x (ROS), y
 // (the KITTI odometry of kitti_lo) or z (a camera's frame).
 
 #include <vector>
