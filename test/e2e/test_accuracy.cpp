@@ -167,15 +167,33 @@ TEST(AccuracyMore, AntennaOffsetEstimatedWhereNoLeverArmIsGiven) {
   }
   Params given;
   given.lever_arm_x = 1.2;
-  const Outcome g = run(sim::simulateDrive(sim::scenario("loop_offset_lever", 1, 50000)), given);
+  const sim::SimDrive d = sim::simulateDrive(sim::scenario("loop_offset_lever", 1, 50000));
+  const Outcome g = run(d, given);
   EXPECT_FALSE(g.result.fusion->antenna_offset_estimated);  // a lever arm given is taken as is
+  // The stamps put right by gnss_time_offset: no clock offset is left to estimate, but the
+  // speed profile shows the clock (it would show one), and the turns the antenna.
+  Params stamped;
+  stamped.gnss_time_offset = d.params.clock_offset;
+  const Outcome s = run(d, stamped);
+  const FusionResult& sf = *s.result.fusion;
+  Trajectory antenna = d.truth;
+  for (Pose& t : antenna) t.position += t.orientation * d.params.lever_arm;
+  const ErrorStats e = sim::trajectoryTruthError(s.result.rubbersheet, antenna);
+  std::printf(
+      "loop_offset_lever, stamps put right: antenna (%.3f, %.3f) m, clock %.4f s, "
+      "trajectory against the antenna's truth %.3f m\n",
+      sf.antenna_offset.x(), sf.antenna_offset.y(), sf.time_offset, e.rmse);
+  EXPECT_TRUE(sf.antenna_offset_estimated);
+  EXPECT_NEAR(sf.antenna_offset.x(), 1.2, 0.1);
+  EXPECT_NEAR(sf.antenna_offset.y(), -0.4, 0.1);
+  EXPECT_LE(e.rmse, kSlack * 0.011);
 }
 
 /// A SLAM whose heading wanders ten times as much as the fusion's noise says, at an even speed:
 /// in a fit of positions the drift passed for a clock offset (0.08 s, 1 m along the track);
 /// the speed profiles show none, so none is estimated. Nor does it pass for an antenna's offset
 /// along the track, which moves the fixes as a clock offset does (0.56-1.14 m at 3.4-7.3 sigma
-/// before the offset was left to drives whose clock offset is estimated).
+/// before the offset was left to drives whose speed profile shows the clock).
 TEST(AccuracyMore, AWanderingSlamHeadingDoesNotPassForAClockOffset) {
   for (std::uint64_t seed : {1, 2, 3}) {
     const sim::SimDrive d = sim::simulateDrive(sim::scenario("open_rtk_drifting", seed, 50000));

@@ -342,7 +342,7 @@ class Fusion {
   /// block, the fixes weighed with their own std-devs.
   double antennaSigma(const Eigen::Vector2d& along);
 
-  /// Where no lever arm was given, the drive turns and its clock offset is estimated: the
+  /// Where no lever arm was given, the drive turns and its speed profile shows the clock: the
   /// antenna's horizontal offset from the poses' origin, fitted with the rest from the solution
   /// at 0. Kept where it is beyond kNotableAntenna and told from 0 by kLeverTold sigmas (along
   /// the track a clock offset moves the fixes as it does: only changes of speed tell them apart),
