@@ -132,6 +132,14 @@ TEST(AccuracyMore, LeverArmAppliedAndClockOffsetEstimated) {
   }
 }
 
+/// The rubber-sheeted trajectory against the truth of the drive's GNSS antenna (its lever arm
+/// from the poses' origin).
+ErrorStats againstAntennaTruth(const sim::SimDrive& d, const GeoreferenceResult& r) {
+  Trajectory antenna = d.truth;
+  for (Pose& t : antenna) t.position += t.orientation * d.params.lever_arm;
+  return sim::trajectoryTruthError(r.rubbersheet, antenna);
+}
+
 /// With no lever arm given, the fusion estimates the antenna's horizontal offset from the
 /// poses' origin (here 1.2 m ahead, 0.4 m right, 1.6 m up), and the trajectory is the antenna's
 /// as without the estimate. In a fit of positions an offset along the track passes for a clock
@@ -141,9 +149,7 @@ TEST(AccuracyMore, AntennaOffsetEstimatedWhereNoLeverArmIsGiven) {
     const sim::SimDrive d = sim::simulateDrive(sim::scenario("loop_offset_lever", seed, 50000));
     const Outcome f = run(d, Params{});
     const FusionResult& fusion = *f.result.fusion;
-    Trajectory antenna = d.truth;
-    for (Pose& t : antenna) t.position += t.orientation * d.params.lever_arm;
-    const ErrorStats e = sim::trajectoryTruthError(f.result.rubbersheet, antenna);
+    const ErrorStats e = againstAntennaTruth(d, f.result);
     std::printf(
         "loop_offset_lever seed %lu, no lever arm given: antenna (%.3f, %.3f) m, clock "
         "%.3f s, trajectory against the antenna's truth %.3f m\n",
@@ -176,9 +182,7 @@ TEST(AccuracyMore, AntennaOffsetEstimatedWhereNoLeverArmIsGiven) {
   stamped.gnss_time_offset = d.params.clock_offset;
   const Outcome s = run(d, stamped);
   const FusionResult& sf = *s.result.fusion;
-  Trajectory antenna = d.truth;
-  for (Pose& t : antenna) t.position += t.orientation * d.params.lever_arm;
-  const ErrorStats e = sim::trajectoryTruthError(s.result.rubbersheet, antenna);
+  const ErrorStats e = againstAntennaTruth(d, s.result);
   std::printf(
       "loop_offset_lever, stamps put right: antenna (%.3f, %.3f) m, clock %.4f s, "
       "trajectory against the antenna's truth %.3f m\n",

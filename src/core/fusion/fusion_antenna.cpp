@@ -21,15 +21,24 @@ Eigen::Vector2d travelInBody(const Trajectory& poses) {
   return sum.norm() > 0.0 ? Eigen::Vector2d(sum.normalized()) : Eigen::Vector2d::UnitX();
 }
 
+/// The fixes' std-devs as the last solve left them, to be put back after a solve beside it.
+std::vector<Vec3> sigmasOf(const std::vector<Fix>& fixes) {
+  std::vector<Vec3> out;
+  out.reserve(fixes.size());
+  for (const auto& f : fixes) out.push_back(f.sigma);
+  return out;
+}
+
+void putBack(const std::vector<Vec3>& sigmas, std::vector<Fix>& fixes) {
+  for (std::size_t i = 0; i < fixes.size(); ++i) fixes[i].sigma = sigmas[i];
+}
+
 }  // namespace
 
 double Fusion::antennaSigma(const Eigen::Vector2d& along) {
   // Weighed with their own std-devs for the measure, as the stage left them after it.
-  std::vector<Vec3> stage;
-  for (auto& f : fixes_) {
-    stage.push_back(f.sigma);
-    f.sigma = f.own;
-  }
+  const std::vector<Vec3> stage = sigmasOf(fixes_);
+  for (auto& f : fixes_) f.sigma = f.own;
   const auto problem = makeProblem(1);
   ceres::Covariance::Options o;
   o.num_threads = solver_threads_;
@@ -39,7 +48,7 @@ double Fusion::antennaSigma(const Eigen::Vector2d& along) {
   const bool told = covariance.Compute(blocks, problem.get());
   Eigen::Matrix2d c = Eigen::Matrix2d::Constant(kInf);
   if (told) covariance.GetCovarianceBlock(lever_, lever_, c.data());
-  for (std::size_t i = 0; i < fixes_.size(); ++i) fixes_[i].sigma = stage[i];
+  putBack(stage, fixes_);
   return told ? std::sqrt(std::max(0.0, along.dot(c * along))) : kInf;
 }
 
@@ -56,8 +65,7 @@ void Fusion::fitAntenna() {
     return;
   const std::vector<Keyframe> held = keyframes_;
   const double dt = dt_;
-  std::vector<Vec3> sigma;  // the solve below weighs the fixes by their own std-devs
-  for (const auto& f : fixes_) sigma.push_back(f.sigma);
+  const std::vector<Vec3> sigmas = sigmasOf(fixes_);  // the solve below weighs them by their own
   estimate_lever_ = true;
   {
     const auto full = makeProblem(1);
@@ -77,7 +85,7 @@ void Fusion::fitAntenna() {
   out_.antenna_offset_sigma = 0.0;
   keyframes_ = held;
   dt_ = dt;
-  for (std::size_t i = 0; i < fixes_.size(); ++i) fixes_[i].sigma = sigma[i];
+  putBack(sigmas, fixes_);
 }
 
 }  // namespace fusion_graph
