@@ -31,6 +31,11 @@ struct DriveMap {
 DriveMap makeDriveMap(const TruthDrive& d, std::size_t every = 5, std::size_t per_scan = 80,
                       std::uint64_t seed = 1);
 
+/// A map 12.5 times as dense (a scan at every pose, 200 points each, another seed): where the
+/// SLAM holds passes apart, a real map's cells hold points of each, which the sparse map's
+/// cells mostly do not show.
+DriveMap makeDenseDriveMap(const TruthDrive& d);
+
 /// Distance bands from the point's pose (m): 0-10, 10-30, 30-50.
 constexpr int kBands = 3;
 
@@ -65,11 +70,18 @@ SigmaCover sheetSigmaCover(const DriveMap& m, const GeoreferenceResult& r, const
 /// map's poses allow).
 MapScore scoreOwnPose(const DriveMap& m, const TruthDrive& d, const GeoreferenceResult& r);
 
-/// Each point moved with the correction of the SLAM pose nearest to it (3D, in the SLAM's map):
-/// what a plain map (x, y, z alone) allows at best, since a warp by place knows no more of a
-/// point than where the SLAM put it. Where the SLAM holds two passes apart, a point seen from
-/// one pass but nearer to the other takes the other's correction.
+/// Each point moved with the correction of the SLAM pose nearest to it (3D, in the SLAM's map).
+/// Where the SLAM holds two passes apart, a point seen from one pass but nearer to the other
+/// takes the other's correction.
 MapScore scoreNearestPose(const DriveMap& m, const TruthDrive& d, const GeoreferenceResult& r);
+
+/// The floor of a plain map (x, y, z alone): each point placed by the affine map fitted, by
+/// least squares against the truth, to the points of its 5 m cell of the SLAM's map. A warp by
+/// place knows no more of a point than where the SLAM put it; where the SLAM lays points of
+/// passes that need different corrections in one cell, no warp affine within the cell serves
+/// them all. Every figure is fitted to its own points (away from revisits: to those alone).
+/// Judged on a dense map (makeDenseDriveMap()): a cell of 4 points or fewer is fitted exactly.
+MapScore scoreFloor(const DriveMap& m);
 
 /// The map saved as a LiDAR SLAM saves it with per-point time (x, y, z float32, time float64,
 /// the scan's odometry stamp) and rebuilt from it (pose_rebuild.h), as the tool moves it.
