@@ -168,7 +168,7 @@ ParamTable<P> makeTable() {
                  "may lie from its true place (a map of 8 more bytes a point)"),
       realRow<P>("point_scatter", &P::point_scatter, 0.02, 0.0, 10, "m",
                  "With point_sigma: the SLAM map's own scatter about its poses, 1-sigma per axis"),
-      realRow<P>("point_heading_sigma", &P::point_heading_sigma, 0.5, 0.0, 100, "mrad",
+      realRow<P>("point_heading_sigma", &P::point_heading_sigma, 4.0, 0.0, 100, "mrad",
                  "With point_sigma: the map's rotation about the vertical near a pose, 1-sigma "
                  "(moves a point by this times its distance from the pose)"),
       realRow<P>("point_tilt_sigma", &P::point_tilt_sigma, 2.0, 0.0, 100, "mrad",

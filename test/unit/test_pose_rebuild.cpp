@@ -203,7 +203,11 @@ TEST(PoseRebuild, EachPointTakesTheSigmaOfItsOwnPose) {
   Affine34 identity = Affine34::Zero();
   identity.leftCols<3>().setIdentity();
   const RubberSheet sheet(src, src, identity);
-  const PointSigmaField field(d.result, pose_sigmas, sheet);
+  // A small heading term (0.5 mrad), so that the poses' own sigmas, 1 cm apart, tell them apart
+  // beyond the distance term.
+  PointSigmaModel model;
+  model.heading = 0.0005;
+  const PointSigmaField field(d.result, pose_sigmas, sheet, model);
   std::vector<Eigen::Vector3d> pts;
   std::vector<double> times;
   std::vector<int> own;

@@ -28,7 +28,7 @@ namespace flexcloud {
 struct PointSigmaModel {
   double scatter_h = 0.02;  ///< m per horizontal axis: the map's own noise about its poses
   double scatter_v = 0.02;  ///< m
-  double heading = 0.0005;  ///< rad: the map's rotation about the vertical near a pose
+  double heading = 0.004;   ///< rad: the map's rotation about the vertical near a pose
   double tilt = 0.002;      ///< rad: the map's roll and pitch near a pose
   /// m: the sheet's strain adds about its ratio * (distance from the pose + this), as the
   /// variance 2 ratio^2 (distance^2 + strain_reach^2), never less than the square of that; at
