@@ -19,6 +19,7 @@
 #include "flexcloud/sheet/beside_points.h"
 #include "flexcloud/sheet/control_points.h"
 #include "flexcloud/sheet/rubber_sheet.h"
+#include "flexcloud/uncertainty/map_sigma.h"
 #include "flexcloud/uncertainty/pose_sigma.h"
 #include "flexcloud/warp/cloud_warp.h"
 
@@ -105,6 +106,9 @@ struct GeoreferenceResult {
   RevisitCheck revisits;
   /// How far each pose of `rubbersheet` may lie from the truth (pose_sigma.h).
   PoseSigmas sigma;
+  /// How far the map may lie from the truth by band of distance from the route, moved by the
+  /// sheet or by each point's own pose (map_sigma.h, the point sigmas' model of the run).
+  MapSigma map_sigma{};
   /// max_sigma_h of the run (m): a result none of whose poses is known within it is degraded.
   double max_sigma_h = 0.0;
   /// The SLAM's white jitter from pose to pose as measured, and the smoothing that took it out

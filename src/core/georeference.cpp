@@ -1155,6 +1155,8 @@ GeoreferenceResult georeference(const DriveInput& input, const Params& given,
       cp.std_dev = std::sqrt(2.0 * h * h + v * v);
     }
   }
+  r.map_sigma =
+      expectedMapSigma(r.poses, r.rubbersheet, r.sigma, *r.sheet, pointSigmaModel(params));
   r.seconds.sigma = watch.lap();
   return r;
 }

@@ -122,6 +122,29 @@ json sigmaJson(const PoseSigmas& s) {
       {"walk_v_m2_per_m", s.walk_v}};
 }
 
+/// The map's expected error by band of distance from the route.
+json mapBandsJson(const std::array<MapSigmaBand, kMapSigmaBands>& bands) {
+  json out = json::array();
+  for (int b = 0; b < kMapSigmaBands; ++b) {
+    out.push_back({{"from_m", kMapSigmaBandEdges[b]},
+                   {"to_m", kMapSigmaBandEdges[b + 1]},
+                   {"sigma_h_rms_m", finiteOrNull(bands[b].h_rms)},
+                   {"sigma_h_median_m", finiteOrNull(bands[b].h_median)},
+                   {"sigma_h_p95_m", finiteOrNull(bands[b].h_p95)},
+                   {"sigma_v_rms_m", finiteOrNull(bands[b].v_rms)}});
+  }
+  return out;
+}
+
+/// How far the map may lie from the truth: moved as this run moved it (a plain map, or none,
+/// by the sheet), and as a map whose points name their pose would be.
+json mapSigmaJson(const MapSigma& m, bool own_pose) {
+  return {{"moved_by", own_pose ? "own_pose" : "rubber_sheet"},
+          {"bands", mapBandsJson(own_pose ? m.own_pose : m.sheet)},
+          {"bands_if_rebuilt", mapBandsJson(m.own_pose)},
+          {"points", "at the sensor's height beside every pose, 1-sigma per axis"}};
+}
+
 /// The clocks: what the trajectories are stamped with, and the offset to the GNSS's.
 json clockJson(const GeoreferenceResult& r, const Params& params) {
   json j = {{"trajectories", "SLAM clock (the poses' own stamps)"},
@@ -347,6 +370,7 @@ std::string reportJson(const GeoreferenceResult& r, const Params& params, const 
   j["method"] = toString(r.method);
   j["uncertainty"] = sigmaJson(r.sigma);
   j["uncertainty"]["max_sigma_h_m"] = params.max_sigma_h;
+  j["uncertainty"]["map"] = mapSigmaJson(r.map_sigma, map && !map->pose_field.empty());
   j["uncertainty"]["beyond_max_sigma_h"] =
       params.max_sigma_h > 0.0 && r.sigma.worst.sigma_h > params.max_sigma_h;
   j["clock"] = clockJson(r, params);

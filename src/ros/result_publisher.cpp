@@ -25,6 +25,11 @@ flexcloud::Result toResultMsg(const NodeResult* r, bool success, const std::stri
   m.worst_from = g.sigma.worst.from;
   m.worst_to = g.sigma.worst.to;
   m.worst_sigma_h = g.sigma.worst.sigma_h;
+  const auto& bands = r->map_info.pose_field.empty() ? g.map_sigma.sheet : g.map_sigma.own_pose;
+  for (const MapSigmaBand& b : bands) {
+    m.map_sigma_h_median.push_back(b.h_median);
+    m.map_sigma_h_p95.push_back(b.h_p95);
+  }
   m.method = toString(g.method);
   if (g.fusion && g.fusion->used + g.fusion->outliers > 0) {
     m.rejected_share = static_cast<double>(g.fusion->outliers) /
@@ -88,6 +93,8 @@ flexcloud::Georeference::Response toResponse(const flexcloud::Result& msg) {
   res.worst_from = msg.worst_from;
   res.worst_to = msg.worst_to;
   res.worst_sigma_h = msg.worst_sigma_h;
+  res.map_sigma_h_median = msg.map_sigma_h_median;
+  res.map_sigma_h_p95 = msg.map_sigma_h_p95;
   res.method = msg.method;
   res.rejected_share = msg.rejected_share;
   res.warnings = msg.warnings;

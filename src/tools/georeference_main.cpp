@@ -408,6 +408,25 @@ std::string jitterPart(const GeoreferenceResult& r) {
   return s;
 }
 
+/// The map's expected error by band of distance from the route, moved as `map` was (none: by
+/// the sheet), and rebuilt from its points' poses where it was not.
+std::string mapSigmaLine(const GeoreferenceResult& r, const MapInfo* map) {
+  const bool own = map != nullptr && !map->pose_field.empty();
+  const auto bands = [](const std::array<MapSigmaBand, kMapSigmaBands>& m) {
+    char s[128];
+    std::snprintf(s, sizeof(s), "%.3f (%.3f) / %.3f (%.3f) / %.3f (%.3f) m", m[0].h_median,
+                  m[0].h_p95, m[1].h_median, m[1].h_p95, m[2].h_median, m[2].h_p95);
+    return std::string(s);
+  };
+  std::string line =
+      "  map vs truth   sigma per axis, median (95th percentile), 0-10 / 10-30 / 30-50 m from the "
+      "route: " +
+      bands(own ? r.map_sigma.own_pose : r.map_sigma.sheet) +
+      (own ? ", each point with its own pose" : ", warped by the sheet");
+  if (!own) line += "; rebuilt from its points' time " + bands(r.map_sigma.own_pose);
+  return line + "\n";
+}
+
 void printSummary(const GeoreferenceResult& r, const Params& params, const MapInfo* map,
                   const std::string& out, const std::string& map_frame) {
   char line[512];
@@ -430,6 +449,7 @@ void printSummary(const GeoreferenceResult& r, const Params& params, const MapIn
       toString(r.method).c_str(), r.scale, rejectedShare(r).c_str(), jitterPart(r).c_str(),
       clockPart(r).c_str());
   std::cout << line;
+  std::cout << mapSigmaLine(r, map);
   const auto& a = r.metrics_aligned;
   const auto& b = r.metrics_rubbersheet;
   std::snprintf(line, sizeof(line),

@@ -21,6 +21,22 @@
 
 namespace flexcloud::test {
 
+/// A sheet over the box from `lo` to `hi`, with one more point `inside` (the box then splits into
+/// tetrahedra around it), that moves every point by `scale` about the origin (1: not at all).
+inline std::shared_ptr<RubberSheet> scalingSheet(const Eigen::Vector3d& lo,
+                                                 const Eigen::Vector3d& hi,
+                                                 const Eigen::Vector3d& inside, double scale) {
+  std::vector<Eigen::Vector3d> src, dst;
+  for (double x : {lo.x(), hi.x()})
+    for (double y : {lo.y(), hi.y()})
+      for (double z : {lo.z(), hi.z()}) src.emplace_back(x, y, z);
+  src.push_back(inside);
+  for (const auto& p : src) dst.push_back(scale * p);
+  Affine34 outside = Affine34::Zero();
+  outside.leftCols<3>() = scale * Eigen::Matrix3d::Identity();
+  return std::make_shared<RubberSheet>(src, dst, outside);
+}
+
 /// Writes `bytes` into a file of that name under the test's temporary folder; returns its path.
 inline std::string writeTempFile(const std::string& name, const std::string& bytes) {
   const std::string path = ::testing::TempDir() + name;

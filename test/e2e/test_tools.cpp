@@ -133,6 +133,23 @@ void expectSigmasCoverTheTruth(const std::string& sim, const std::string& o,
   const auto lead = output.find("trajectory vs truth  sigma per axis: median ");
   ASSERT_NE(lead, std::string::npos) << output;
   EXPECT_LT(lead, output.find("fit to the GNSS     aligned: MAE"));
+  // Beside it, the map's: its points' sigma by band of distance from the route, growing with it
+  // (4 mrad of heading: 0.15 m more at 37.5 m), the rebuilt map's no larger than the sheet's.
+  const auto map_line = output.find("map vs truth   sigma per axis, median (95th percentile)");
+  ASSERT_NE(map_line, std::string::npos) << output;
+  EXPECT_GT(map_line, lead);
+  EXPECT_LT(map_line, output.find("fit to the GNSS     aligned: MAE"));
+  const auto& bands = u["map"]["bands"];
+  ASSERT_EQ(bands.size(), 3U);
+  EXPECT_EQ(u["map"]["moved_by"], "rubber_sheet");
+  for (std::size_t b = 0; b < 3; ++b) {
+    const double median = bands[b]["sigma_h_median_m"].get<double>();
+    EXPECT_GE(median, b == 0 ? 0.0 : bands[b - 1]["sigma_h_median_m"].get<double>() + 0.02);
+    EXPECT_GE(bands[b]["sigma_h_p95_m"].get<double>(), median);
+    EXPECT_LE(u["map"]["bands_if_rebuilt"][b]["sigma_h_median_m"].get<double>(), median + 1e-9);
+  }
+  EXPECT_GT(bands[2]["sigma_h_median_m"].get<double>(), 0.15);
+  EXPECT_LT(bands[0]["sigma_h_median_m"].get<double>(), 0.1);
 }
 
 /// A SLAM whose poses jitter by 1.5 cm each (simulate_drive --pose-jitter): the summary says it

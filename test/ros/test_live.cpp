@@ -160,6 +160,14 @@ TEST_F(Live, TopicsInAccurateMapOutTfAndMarkersToo) {
   EXPECT_LE(r.sigma_h_median, r.sigma_h_p95);
   EXPECT_LE(r.sigma_h_p95, r.worst_sigma_h);
   EXPECT_LT(r.worst_from, r.worst_to);
+  // Beside it, the map's by band of distance from the route (0-10, 10-30, 30-50 m), growing.
+  ASSERT_EQ(r.map_sigma_h_median.size(), 3U);
+  ASSERT_EQ(r.map_sigma_h_p95.size(), 3U);
+  EXPECT_GT(r.map_sigma_h_median[0], 0.001);
+  EXPECT_LT(r.map_sigma_h_median[0], 0.1);
+  for (std::size_t b = 1; b < 3; ++b)
+    EXPECT_GT(r.map_sigma_h_median[b], r.map_sigma_h_median[b - 1]);
+  for (std::size_t b = 0; b < 3; ++b) EXPECT_GE(r.map_sigma_h_p95[b], r.map_sigma_h_median[b]);
   EXPECT_GE(r.rejected_share, 0.0);
   EXPECT_LT(r.rejected_share, 0.5);
 

@@ -10,6 +10,7 @@
 #include "flexcloud/io/cloud_layout.h"
 #include "flexcloud/params.h"
 #include "flexcloud/uncertainty/point_sigma.h"
+#include "test_util.h"
 
 namespace flexcloud {
 namespace {
@@ -17,18 +18,8 @@ namespace {
 /// A sheet over the box [-500, 1000]^2 x [-100, 100] that moves every point by `scale` about the
 /// origin (1: not at all).
 std::shared_ptr<RubberSheet> scalingSheet(double scale) {
-  std::vector<Eigen::Vector3d> src, dst;
-  for (double x : {-500.0, 1000.0})
-    for (double y : {-500.0, 1000.0})
-      for (double z : {-100.0, 100.0}) {
-        src.emplace_back(x, y, z);
-        dst.push_back(scale * src.back());
-      }
-  src.emplace_back(10.0, 20.0, 1.0);  // inside: the box then splits into tetrahedra around it
-  dst.push_back(scale * src.back());
-  Affine34 outside = Affine34::Zero();
-  outside.leftCols<3>() = scale * Eigen::Matrix3d::Identity();
-  return std::make_shared<RubberSheet>(src, dst, outside);
+  return test::scalingSheet({-500.0, -500.0, -100.0}, {1000.0, 1000.0, 100.0}, {10.0, 20.0, 1.0},
+                            scale);
 }
 
 /// A winding drive of n poses 1 m apart, with sigmas growing along it.
