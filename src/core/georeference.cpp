@@ -500,9 +500,10 @@ void warnSlamFailures(const FusionResult& f, std::vector<std::string>& out) {
     s.precision(1);
     s << "SLAM failure: from " << runs[k].begin << " to " << runs[k].end
       << " s (SLAM clock) its shape lies up to " << runs[k].worst << " m from " << runs[k].fixes
-      << " fixes that claim RTK precision and agree with each other, with no step, gap or "
-         "change of claim at either end: the GNSS was followed there. Check the SLAM there "
-         "(its map may be distorted)";
+      << (runs[k].claimed ? " fixes that claim RTK precision"
+                          : " fixes whose scatter shows RTK precision (no std-dev given)")
+      << " and agree with each other, with no step, gap or change of claim at either end: the "
+         "GNSS was followed there. Check the SLAM there (its map may be distorted)";
     if (k == 2 && runs.size() > 3) s << " (and " << runs.size() - 3 << " more such stretches)";
     out.push_back(s.str());
   }

@@ -63,7 +63,9 @@ json slamFailuresJson(const std::vector<FusionResult::SlamFailure>& runs) {
     out.push_back({{"from_s", run.begin},
                    {"to_s", run.end},
                    {"fixes", run.fixes},
-                   {"slam_off_by_m", run.worst}});
+                   {"slam_off_by_m", run.worst},
+                   {"precision_m", run.precision},
+                   {"std_dev_given", run.claimed}});
   }
   return out;
 }

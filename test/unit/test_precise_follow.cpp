@@ -2,6 +2,7 @@
 // along a straight road whose SLAM errs in a known way, and fixes on the true road.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -92,6 +93,48 @@ TEST(PreciseFollow, AFarRunStaysRejectedAndALoneOutlierToo) {
   EXPECT_EQ(f.follow.locked, 60u);
   EXPECT_EQ(rejected(f), 61u);
   EXPECT_EQ(f.fixes[400].verdict, FixVerdict::kOutlier);
+}
+
+/// A SLAM that fails for 20 s (poses 200-399): it moves 2 m aside over 3 s, stays and comes
+/// back, without a step, the graph rejecting the fixes there. The fixes came without a std-dev
+/// (white noise 2 cm measured from them); in [200, 400) they are measured as elsewhere, or
+/// (`drawn`) lie exactly on the road, as positions drawn through an outage do.
+FusionResult failingSlamUnclaimedFixes(bool drawn) {
+  auto slam = [](std::size_t i) -> Vec3 {
+    const double x = static_cast<double>(i);
+    const double in = std::clamp((x - 200.0) / 30.0, 0.0, 1.0);
+    const double out = std::clamp((400.0 - x) / 30.0, 0.0, 1.0);
+    return Vec3(0.0, 2.0 * std::min(in, out), 0.0);
+  };
+  FusionResult f =
+      road(600, 0.02, slam, [](std::size_t i) { return i >= 210 && i < 390 ? 0.0 : 1.0; });
+  f.unknown_white = Eigen::Vector2d(0.02, 0.04);
+  for (std::size_t i = 0; i < f.fixes.size(); ++i) {
+    f.fixes[i].std_given = false;
+    if (drawn && i >= 200 && i < 400) f.fixes[i].position = Vec3(static_cast<double>(i), 0, 0);
+  }
+  return f;
+}
+
+// Fixes without a std-dev whose scatter shows 2 cm, the SLAM 2 m from them: they are
+// followed, and the SLAM's failure is named as one whose fixes gave no std-dev. Drawn through
+// an outage (far smoother than the rest), the same run stays out: the poses keep the SLAM's
+// shape, less the correction its edges carry in.
+TEST(PreciseFollow, MeasuredFixesWithoutAStdDevAreFollowedDrawnOnesNot) {
+  FusionResult measured = failingSlamUnclaimedFixes(false);
+  ASSERT_GT(worst(measured, 280, 320), 1.9);
+  followPreciseGnss(measured, FollowOptions{});
+  EXPECT_LT(worst(measured, 200, 400), 0.08);
+  ASSERT_EQ(measured.follow.slam_failures.size(), 1U);
+  EXPECT_FALSE(measured.follow.slam_failures[0].claimed);
+  EXPECT_NEAR(measured.follow.slam_failures[0].precision, 0.02, 0.005);
+  EXPECT_GT(measured.follow.slam_failures[0].worst, 1.5);
+
+  FusionResult drawn = failingSlamUnclaimedFixes(true);
+  followPreciseGnss(drawn, FollowOptions{});
+  EXPECT_GT(worst(drawn, 280, 320), 1.0);  // the correction at its edges carried on: 1.4 m
+  EXPECT_TRUE(drawn.follow.slam_failures.empty());
+  EXPECT_GE(drawn.follow.locked, 100U);
 }
 
 // Fixes of 0.3 m see nothing of a SLAM that errs by centimetres: none takes part, nothing

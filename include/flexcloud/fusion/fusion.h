@@ -148,10 +148,13 @@ struct FusionResult {
   /// fault at their edge), and those it rejected; and the stretches where it followed fixes
   /// that claim precision and agree with each other however far the SLAM's shape lay from them
   /// (the SLAM failing there): their first and last fix's instant (SLAM clock, s), how many
-  /// fixes, and how far at most the keyframe graph's trajectory lay from them (m).
+  /// fixes, and how far at most the keyframe graph's trajectory lay from them (m); the
+  /// precision they showed (m: the largest std-dev claimed, or for fixes without one the white
+  /// noise measured from such fixes) and whether every fix claimed its own.
   struct SlamFailure {
-    double begin = 0.0, end = 0.0, worst = 0.0;
+    double begin = 0.0, end = 0.0, worst = 0.0, precision = 0.0;
     std::size_t fixes = 0;
+    bool claimed = true;
   };
   struct Follow {
     std::size_t fixes = 0;

@@ -59,6 +59,11 @@ class Refinement {
   /// its neighbour `outside`: a step near it, a return after a gap across it, a change of claim
   /// near it.
   bool faultAtEdge(std::size_t inside, std::size_t outside) const;
+  /// Whether fixes a..b each claim 5 cm or better (without a std-dev: the noise measured).
+  bool claimsPrecision(std::size_t a, std::size_t b) const;
+  /// Whether fixes a..b were drawn (through an outage), not measured: those without a std-dev
+  /// show less than kDrawnShare of `unclaimed_noise`, the median of the drive's such fixes.
+  bool drawn(std::size_t a, std::size_t b, double unclaimed_noise) const;
   bool stepNear(double centre) const;
   bool returnAfterGap(std::size_t lo, std::size_t hi) const;
   bool claimChangesNear(double centre) const;

@@ -12,7 +12,6 @@ namespace flexcloud {
 namespace follow {
 namespace {
 
-constexpr std::size_t kRoughWindow = 10;  // fixes on either side of the smoothness check
 constexpr double kRoughClaims = 2.0;
 constexpr std::size_t kJumpWindow = 5;
 constexpr double kJumpSpread = 3.0, kJumpSigmas = 8.0;
@@ -68,6 +67,7 @@ void Series::add(const Series& from, std::size_t j) {
   along.push_back(from.along[j]);
   claim.push_back(from.claim[j]);
   doubt.push_back(from.doubt[j]);
+  noise.push_back(from.noise[j]);
   fix.push_back(from.fix[j]);
 }
 
@@ -120,6 +120,7 @@ Series gather(const FusionResult& f, const FollowOptions& o) {
     s.claim.push_back(x.std_given ? x.std_dev.x() : std::numeric_limits<double>::quiet_NaN());
     const auto w = std::upper_bound(worse.begin(), worse.end(), before);
     s.doubt.push_back(w != worse.end() && *w < x.stamp);
+    s.noise.push_back(std::numeric_limits<double>::quiet_NaN());
     before = x.stamp;
     s.fix.push_back(j);
   }
@@ -127,15 +128,17 @@ Series gather(const FusionResult& f, const FollowOptions& o) {
 }
 
 Series keepTheSmooth(const Series& s, const std::vector<Vec3>& positions) {
-  if (s.size() < 2 * kRoughWindow + 4) return s;
+  if (s.size() < 2 * kNoiseReach + 4) return s;
   const std::vector<Vec3> dr = thirdDifferences(s.r, s.t);
   const std::vector<Vec3> dp = thirdDifferences(positions, s.t);
+  Series measured = s;
   Series out;
   for (std::size_t j = 0; j < s.size(); ++j) {
-    const std::size_t lo = j > kRoughWindow ? j - kRoughWindow : 0;
-    const std::size_t hi = std::min(dr.size(), j + kRoughWindow);
-    const double rough = std::min(roughAround(dr, lo, hi), roughAround(dp, lo, hi));
-    if (rough <= kRoughClaims * std::sqrt(s.var[j].x())) out.add(s, j);
+    const std::size_t lo = j > kNoiseReach ? j - kNoiseReach : 0;
+    const std::size_t hi = std::min(dr.size(), j + kNoiseReach);
+    measured.noise[j] = roughAround(dp, lo, hi);
+    const double rough = std::min(roughAround(dr, lo, hi), measured.noise[j]);
+    if (rough <= kRoughClaims * std::sqrt(s.var[j].x())) out.add(measured, j);
   }
   return out;
 }

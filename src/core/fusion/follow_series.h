@@ -14,6 +14,10 @@ namespace follow {
 
 using Vec3 = Eigen::Vector3d;
 
+/// Fixes on either side of each that its white noise is read over (Series::noise, the
+/// smoothness check of keepTheSmooth()).
+constexpr std::size_t kNoiseReach = 10;
+
 /// The fixes that take part, in instant order: residual from the fused antenna, own variance,
 /// instant, the path to it (time_metres per second added), the std-dev claimed, the input
 /// index.
@@ -25,6 +29,9 @@ struct Series {
   /// Whether a fix that claimed less than max_std (a float solution, a receiver that knows it
   /// is off) lies between it and the fix before it in the series: the receiver's status changed.
   std::vector<bool> doubt;
+  /// The white noise the fixes' positions show around each (m per horizontal axis, from their
+  /// third differences, the motion's jerk in it; NaN where keepTheSmooth() did not measure it).
+  std::vector<double> noise;
   std::vector<std::size_t> fix;
   std::size_t size() const { return t.size(); }
   /// Path from the fix before to fix j (0 for the first).

@@ -1,6 +1,7 @@
 #include "flexcloud/fusion/precise_follow.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "flexcloud/metrics.h"
 #include "follow_em.h"
@@ -65,10 +66,13 @@ std::vector<FusionResult::SlamFailure> slamFailures(const Series& s, const Refin
   const std::vector<bool>& followed = e.followed();
   for (std::size_t j = 0; j < s.size(); ++j) {
     if (!followed[j]) continue;
-    if (j == 0 || !followed[j - 1]) out.push_back({s.t[j], s.t[j], 0.0, 0});
+    if (j == 0 || !followed[j - 1]) out.push_back({s.t[j], s.t[j], 0.0, 0.0, 0, true});
     FusionResult::SlamFailure& run = out.back();
     run.end = s.t[j];
     run.worst = std::max(run.worst, s.r[j].head<2>().norm());
+    const bool claimed = std::isfinite(s.claim[j]);
+    run.precision = std::max(run.precision, claimed ? s.claim[j] : std::sqrt(s.var[j].x()));
+    run.claimed = run.claimed && claimed;
     ++run.fixes;
   }
   return out;
