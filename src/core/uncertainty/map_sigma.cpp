@@ -5,6 +5,8 @@
 #include <limits>
 #include <vector>
 
+#include "flexcloud/metrics.h"
+
 namespace flexcloud {
 namespace {
 
@@ -21,10 +23,7 @@ double quantileOf(std::vector<double>& v, double q) {
 
 /// The root mean square of the values; NaN for none.
 double rms(const std::vector<double>& v) {
-  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-  double sq = 0.0;
-  for (double x : v) sq += x * x;
-  return std::sqrt(sq / static_cast<double>(v.size()));
+  return v.empty() ? std::numeric_limits<double>::quiet_NaN() : errorStats(v).rmse;
 }
 
 /// The sigmas of a band's points.
