@@ -49,7 +49,10 @@ errors against the ground truth (doc/ACCURACY.md).
                             RMSE, MAX, MAX in the first and last 20 s and elsewhere, fixes
                             rejected of those that took part, fixes more than 3 m off the truth
                             rejected, the clock's error, the 95th percentile of the
-                            orientations' angle from the truth; then how the defaults' pose sigmas
+                            orientations' angle from the truth, and from the truth turned by
+                            the LiDAR's mount where the truth is of another body (MulRan's
+                            base), in all and about each body axis, and the rotation that
+                            fits each drive best; then how the defaults' pose sigmas
                             cover the errors: the shares within 2.45 sigma_h and 1.96 sigma_v,
                             the band calibrated sigmas show on as many independent samples,
                             per drive and pooled
@@ -172,8 +175,9 @@ int main(int argc, char** argv) {
     if (!o.truth_drives.empty()) {
       std::printf(
           "| drive | method | RMSE | MAX | MAX first/last 20 s | MAX elsewhere | fixes rejected | "
-          "of those 3 m off | clock error | orientation p95 (deg) |\n"
-          "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+          "of those 3 m off | clock error | orientation p95 (deg) | less the mount: all "
+          "(about x / y / z) | fitted mount (deg) |\n"
+          "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
       study::printTruthDriveRows(o.truth_drives, o.control_points, o.sets, o.shift);
       return 0;
     }

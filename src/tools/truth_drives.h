@@ -8,6 +8,7 @@
 // truth rows by 38-58 ms, as its README gives), whatever clock a method chose or the stamps
 // were shifted by.
 
+#include <Eigen/Core>
 #include <string>
 #include <utility>
 #include <vector>
@@ -24,13 +25,20 @@ struct TruthDrive {
   /// The truth at every pose's true instant (its stamp plus `lag`), in the poses' order; NaN
   /// positions where that instant lies outside the truth rows.
   Trajectory truth_at_pose;
-  double lag = 0.0;    ///< s: pose stamp s shows where the vehicle was at truth time s + lag
+  double lag = 0.0;  ///< s: pose stamp s shows where the vehicle was at truth time s + lag
+  /// How the poses' body is mounted on the truth's (knownMount), rotation vector, deg.
+  Eigen::Vector3d mount = Eigen::Vector3d::Zero();
   double shift = 0.0;  ///< s the poses' (and the truth's) stamps were moved by
 };
 
 /// The lag of a drive's poses behind its truth rows (s, truth time - pose stamp), as the
 /// dataset's README gives it: MulRan's six drives; 0 for any other folder (KITTI's).
 double knownLag(const std::string& dir);
+
+/// How the poses' body is mounted on the truth's, as a rotation vector about the truth's body
+/// axes (deg): MulRan's truth is of its base, its poses of the LiDAR; 0 for any other folder
+/// (KITTI's truth is of its poses' own frame).
+Eigen::Vector3d knownMount(const std::string& dir);
 
 /// The drive in `dir` with the GNSS of `kind` (rtk or urban), the poses' stamps moved by
 /// `shift` seconds (a known clock offset: SLAM clock minus GNSS clock). Throws Error naming a
@@ -44,6 +52,15 @@ TruthDrive loadTruthDrive(const std::string& dir, const std::string& kind, doubl
 struct TruthScore {
   double rmse = 0.0, max = 0.0, ends_max = 0.0, middle_max = 0.0;
   double turn_p95 = 0.0;  ///< deg: the 95th percentile of the orientations' angle from the truth
+  /// The rotation from the truth's body to the orientations, constant over the drive (the mean
+  /// of every pose's, projected onto the rotations), as a rotation vector about the truth's body
+  /// axes (deg): the poses' mount on the truth's body, and any error of the orientations that
+  /// stays the same over the drive.
+  Eigen::Vector3d fitted_mount = Eigen::Vector3d::Zero();
+  /// deg: the 95th percentile of the angle from the truth turned by the drive's known mount
+  /// (TruthDrive::mount), and of that rotation's parts about the poses' body axes x, y and z.
+  double turn_less_mount_p95 = 0.0;
+  Eigen::Vector3d turn_axes_p95 = Eigen::Vector3d::Zero();
   std::size_t fixes = 0, rejected = 0, far = 0, far_rejected = 0;
 };
 TruthScore scoreAgainstTruth(const TruthDrive& d, const GeoreferenceResult& r);
