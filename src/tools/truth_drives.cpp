@@ -65,6 +65,11 @@ Eigen::Vector3d knownMount(const std::string& dir) {
   return {0.29, -1.41, 0.10};
 }
 
+Eigen::Matrix3d mountRotation(const TruthDrive& d) {
+  if (d.mount.isZero()) return Eigen::Matrix3d::Identity();
+  return Eigen::AngleAxisd(d.mount.norm() * M_PI / 180.0, d.mount.normalized()).toRotationMatrix();
+}
+
 TruthDrive loadTruthDrive(const std::string& dir, const std::string& kind, double shift) {
   TruthDrive d;
   d.name = std::filesystem::path(dir).filename().string() + " " + kind;
@@ -104,13 +109,6 @@ Eigen::Matrix3d nearestRotation(const Eigen::Matrix3d& m) {
   Eigen::Matrix3d fix = Eigen::Matrix3d::Identity();
   fix(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0.0 ? -1.0 : 1.0;
   return svd.matrixU() * fix * svd.matrixV().transpose();
-}
-
-/// The rotation of a drive's mount (TruthDrive::mount): the truth's body turned by it is the
-/// poses' body.
-Eigen::Matrix3d mountRotation(const TruthDrive& d) {
-  if (d.mount.isZero()) return Eigen::Matrix3d::Identity();
-  return Eigen::AngleAxisd(d.mount.norm() * M_PI / 180.0, d.mount.normalized()).toRotationMatrix();
 }
 
 Eigen::Vector3d degrees(const Eigen::Matrix3d& rotation) {

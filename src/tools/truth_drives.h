@@ -40,6 +40,10 @@ double knownLag(const std::string& dir);
 /// (KITTI's truth is of its poses' own frame).
 Eigen::Vector3d knownMount(const std::string& dir);
 
+/// The rotation of a drive's mount (TruthDrive::mount): the truth's body turned by it is the
+/// poses' body.
+Eigen::Matrix3d mountRotation(const TruthDrive& d);
+
 /// The drive in `dir` with the GNSS of `kind` (rtk or urban), the poses' stamps moved by
 /// `shift` seconds (a known clock offset: SLAM clock minus GNSS clock). Throws Error naming a
 /// missing file or one whose rows do not pair with the poses'.

@@ -127,9 +127,12 @@ DriveMap makeDriveMap(const TruthDrive& d, std::size_t every, std::size_t per_sc
     stamps.push_back(poses[i].stamp);
   }
   const PassGrid by_truth(truth_at, stamps), by_slam(slam_at, stamps);
+  // A scan's true place: the truth's body turned by the sensor's mount on it.
+  Eigen::Isometry3d mount = Eigen::Isometry3d::Identity();
+  mount.linear() = mountRotation(d);
   for (std::size_t i = 0; i < poses.size(); i += std::max<std::size_t>(1, every)) {
     if (!d.truth_at_pose[i].position.allFinite()) continue;
-    const Eigen::Isometry3d s = isometryOf(poses[i]), t = isometryOf(d.truth_at_pose[i]);
+    const Eigen::Isometry3d s = isometryOf(poses[i]), t = isometryOf(d.truth_at_pose[i]) * mount;
     for (std::size_t k = 0; k < per_scan; ++k) {
       const Eigen::Vector3d o = scanOffset(axes, rng);
       m.slam.push_back(s * o);

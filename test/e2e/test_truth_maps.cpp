@@ -24,9 +24,11 @@ const char* const kBandNames[study::kBands] = {"0-10", "10-30", "30-50"};
 /// The map's expected error the result tells (map_sigma.h) against the map's errors, by band,
 /// per axis: the sheet's map below the told 95th percentile and above a quarter of the median
 /// (the sheet's sigmas are cautious where its strain is large: on MulRan the median is 1.5-3
-/// times the RMSE), the rebuilt map's within a factor of 2.5 of the told root mean square.
+/// times the RMSE), the rebuilt map's at most 2.5 times the told root mean square and at least
+/// that over `cautious` (the told as cautious as the pose sigmas it starts from may be).
 void expectToldHowGood(const std::string& drive, const study::MapScore& sheet,
-                       const study::MapScore& rebuilt, const MapSigma& told) {
+                       const study::MapScore& rebuilt, const MapSigma& told,
+                       double cautious = 2.5) {
   for (int b = 0; b < study::kBands; ++b) {
     const double by_sheet = sheet.band_h[b].rmse / std::sqrt(2.0);
     const double by_pose = rebuilt.band_h[b].rmse / std::sqrt(2.0);
@@ -37,7 +39,7 @@ void expectToldHowGood(const std::string& drive, const study::MapScore& sheet,
         by_pose, told.own_pose[b].h_rms);
     EXPECT_GE(by_sheet, 0.25 * told.sheet[b].h_median) << drive << " band " << b;
     EXPECT_LE(by_sheet, told.sheet[b].h_p95) << drive << " band " << b;
-    EXPECT_GE(by_pose, told.own_pose[b].h_rms / 2.5) << drive << " band " << b;
+    EXPECT_GE(by_pose, told.own_pose[b].h_rms / cautious) << drive << " band " << b;
     EXPECT_LE(by_pose, 2.5 * told.own_pose[b].h_rms) << drive << " band " << b;
   }
 }
@@ -167,10 +169,14 @@ TEST(TruthMaps, TheFloorOfAPlainMapKnownAnswers) {
 // On the MulRan drives, whose passes the SLAM holds metres apart (drift of 6-47 m) within 30-50 m
 // of each other, no warp by place brings a plain map within 1.5 times the map its points' own
 // poses give, away from revisits: the best warp affine within each 5 m cell, fitted to the truth,
-// is 0.74-1.89 m off horizontally, where the map rebuilt from its points' time is 0.11-0.45 m.
+// is 0.73-1.88 m off horizontally, where the map rebuilt from its points' time is 0.08-0.43 m.
 // The sheet lies above that floor (3.0-9.2 m). Held: the floor at least twice the rebuilt map's.
 // Their point sigmas hold 85-99 % within 2.45 sigma_h in each band, the mean of the drives' shares
-// (the sheet's map 98.3 / 95.5 / 92.5 %, the rebuilt map's 95.2 / 92.9 / 92.1 %).
+// (the sheet's map 98.9 / 96.0 / 92.7 %, the rebuilt map's 97.5 / 94.4 / 92.8 %). The truth's
+// scans are placed by the LiDAR's true pose (the base's turned by study::knownMount). The told
+// error of the rebuilt map is up to 4.1 times its RMSE (DCC_02 near the route): it starts from
+// the pose sigmas, 2.5 times the trajectory's RMSE there, the antenna's 8 cm along the track that
+// KAIST_03 and Riverside_03 need (MulranDrives.PoseSigmasCoverTheErrorsWithRtkGnss).
 TEST(TruthMaps, PlainMulranMapsHaveAFloorFarAboveTheirOwnPosesAndSigmasThatHold) {
   const std::vector<std::string> dirs = test::findTruthDrives(
       "mulran_lo", {"DCC_02", "DCC_03", "KAIST_02", "KAIST_03", "Riverside_02", "Riverside_03"});
@@ -187,7 +193,7 @@ TEST(TruthMaps, PlainMulranMapsHaveAFloorFarAboveTheirOwnPosesAndSigmasThatHold)
                 d.name.c_str(), sheet.away_h.rmse, floor.away_h.rmse, rebuilt.away_h.rmse);
     EXPECT_GE(floor.away_h.rmse, 2.0 * rebuilt.away_h.rmse) << d.name;
     EXPECT_GE(sheet.away_h.rmse, floor.away_h.rmse) << d.name;
-    expectToldHowGood(d.name, sheet, rebuilt, r.map_sigma);
+    expectToldHowGood(d.name, sheet, rebuilt, r.map_sigma, 4.5);
     sheet_covers.push_back(study::sheetSigmaCover(m, r, Params{}));
     rebuilt_covers.push_back(study::rebuiltSigmaCover(m, d, r, Params{}));
   }
