@@ -96,8 +96,13 @@ class RubberSheet {
 
   RubberSheet(const RubberSheet& shape, const std::vector<Eigen::Vector3d>& target,
               const Affine34& outside);
-  void buildTets(const Eigen::Isometry3d& input_to_source);
-  void replaceDegenerate(const std::vector<bool>& flat);
+  /// The walk's geometry and each tetrahedron's inverse edge matrix, from the sources.
+  void buildGeometry();
+  void tetGeometry(std::size_t t, const Eigen::Matrix3d& rot,
+                   const Eigen::Isometry3d& source_to_input, double back_shift);
+  /// Each tetrahedron's transform, from the targets and the inverses buildGeometry() kept.
+  void buildAffine();
+  void replaceDegenerate(const std::vector<char>& flat);
   void makeLocator();
 
   std::vector<Eigen::Vector3d> source_;

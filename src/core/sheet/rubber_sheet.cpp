@@ -12,6 +12,7 @@
 #include <limits>
 
 #include "cell_hash.h"
+#include "parallel.h"
 #include "sheet/tet_locator.h"
 
 namespace flexcloud {
@@ -25,6 +26,10 @@ struct RubberSheet::Cgal {
   using Delaunay = CGAL::Delaunay_triangulation_3<K, Tds>;
   using Point = K::Point_3;
   Delaunay dt;
+  /// Per tetrahedron (by its cell's number): the inverse of its edge matrix in the source frame
+  /// and whether it is flat; what a retargeted sheet needs besides its targets.
+  std::vector<Eigen::Matrix3d, Eigen::aligned_allocator<Eigen::Matrix3d>> bary;
+  std::vector<char> flat;
 };
 
 namespace {
@@ -101,7 +106,8 @@ RubberSheet::RubberSheet(const std::vector<Eigen::Vector3d>& source,
   }
   int next = 0;
   for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) c->info() = next++;
-  buildTets(input_to_source);
+  buildGeometry();
+  buildAffine();
   makeLocator();
 }
 
@@ -111,11 +117,13 @@ RubberSheet::RubberSheet(const RubberSheet& shape, const std::vector<Eigen::Vect
       outside_(outside),
       merged_(shape.merged_),
       input_to_source_(shape.input_to_source_),
+      geometry_(shape.geometry_),
+      tet_vertices_(shape.tet_vertices_),
       kept_(shape.kept_),
       cgal_(shape.cgal_) {
   target_.reserve(kept_.size());
   for (std::size_t i : kept_) target_.push_back(target[i]);
-  buildTets(input_to_source_);
+  buildAffine();
   makeLocator();
 }
 
@@ -139,61 +147,92 @@ void RubberSheet::makeLocator() {
       std::make_unique<TetLocator>(geometry_, tet_vertices_, source_, input_to_source_, lo, hi);
 }
 
-void RubberSheet::buildTets(const Eigen::Isometry3d& input_to_source) {
-  // Reads the triangulation only (its cells were numbered where it was built): retargeted
-  // sheets share it.
-  const auto& dt = cgal_->dt;
-  const auto next = static_cast<std::size_t>(dt.number_of_finite_cells());
-  geometry_.resize(next);
-  affine_.resize(geometry_.size());
-  tet_vertices_.resize(geometry_.size());
-  std::vector<bool> flat(geometry_.size(), false);
-  const Eigen::Matrix3d rot = input_to_source.linear();
-  const Eigen::Isometry3d source_to_input = input_to_source.inverse();
+void RubberSheet::buildGeometry() {
+  // Reads the triangulation only (its cells were numbered where it was built). What depends on
+  // the sources alone stays in cgal_ for the sheets retargeted from this one: each
+  // tetrahedron's inverse edge matrix and whether it is flat.
+  Cgal& cgal = *cgal_;
+  const auto& dt = cgal.dt;
+  const auto n = static_cast<std::size_t>(dt.number_of_finite_cells());
+  std::vector<Cgal::Delaunay::Cell_handle> cells(n);
   for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
-    const auto t = static_cast<std::size_t>(c->info());
-    LocatorTet& tet = geometry_[t];
-    Affine34& affine = affine_[t];
-    std::array<int, 4>& v = tet_vertices_[t];
-    for (int i = 0; i < 4; ++i) {
-      v[i] = c->vertex(i)->info();
-      const auto nb = c->neighbor(i);
-      tet.neighbour[i] = dt.is_infinite(nb) ? -1 : nb->info();
-    }
-    const auto& s = source_;
-    const auto& d = target_;
-    Eigen::Matrix3d edges;
-    Eigen::Matrix3d images;
-    double longest = 0.0;
-    for (int i = 0; i < 3; ++i) {
-      edges.col(i) = s[v[i + 1]] - s[v[0]];
-      images.col(i) = d[v[i + 1]] - d[v[0]];
-      longest = std::max(longest, edges.col(i).norm());
-    }
-    flat[t] = std::abs(edges.determinant()) < kFlatQuality * longest * longest * longest;
-    // Householder QR with full pivoting, as in the published method, on vertex-relative
-    // coordinates so that large coordinates do not cost precision.
-    const Eigen::FullPivHouseholderQR<Eigen::Matrix3d> qr(edges);
-    const Eigen::Matrix3d bary = qr.solve(Eigen::Matrix3d::Identity());
-    const Eigen::Matrix3d linear = images * bary;
-    // Fold the input -> source transform in: input point q lies at input_to_source * q.
-    tet.bary = bary * rot;
-    tet.v0 = source_to_input * s[v[0]];
-    // Rounding of the barycentric coordinates: the inverse's own (conditioning), that of
-    // subtracting coordinates of this magnitude, and that of v0, which came back from the
-    // source frame through the alignment (with the GNSS in UTM-size coordinates both are
-    // thousands of kilometres, and v0 keeps their rounding); 256 eps of all is a safe bound.
-    const double cond = edges.norm() * bary.norm();
-    const double back = s[v[0]].norm() + input_to_source.translation().norm();
-    tet.tolerance = 256.0 * std::numeric_limits<double>::epsilon() *
-                    (cond + bary.norm() * (tet.v0.norm() + longest + back));
-    affine.leftCols<3>() = linear * rot;
-    affine.col(3) = linear * (input_to_source.translation() - s[v[0]]) + d[v[0]];
+    cells[static_cast<std::size_t>(c->info())] = c;
   }
-  replaceDegenerate(flat);
+  geometry_.resize(n);
+  tet_vertices_.resize(n);
+  cgal.bary.resize(n);
+  cgal.flat.assign(n, 0);
+  const Eigen::Matrix3d rot = input_to_source_.linear();
+  const Eigen::Isometry3d source_to_input = input_to_source_.inverse();
+  const double back_shift = input_to_source_.translation().norm();
+  parallelRanges(n, static_cast<std::size_t>(threadCount(0)), 0,
+                 [&](std::size_t, std::size_t begin, std::size_t end) {
+                   for (std::size_t t = begin; t < end; ++t) {
+                     const auto& c = cells[t];
+                     std::array<int, 4>& v = tet_vertices_[t];
+                     LocatorTet& tet = geometry_[t];
+                     for (int i = 0; i < 4; ++i) {
+                       v[i] = c->vertex(i)->info();
+                       const auto nb = c->neighbor(i);
+                       tet.neighbour[i] = dt.is_infinite(nb) ? -1 : nb->info();
+                     }
+                     tetGeometry(t, rot, source_to_input, back_shift);
+                   }
+                 });
 }
 
-void RubberSheet::replaceDegenerate(const std::vector<bool>& flat) {
+void RubberSheet::tetGeometry(std::size_t t, const Eigen::Matrix3d& rot,
+                              const Eigen::Isometry3d& source_to_input, double back_shift) {
+  const std::array<int, 4>& v = tet_vertices_[t];
+  const auto& s = source_;
+  Eigen::Matrix3d edges;
+  double longest = 0.0;
+  for (int i = 0; i < 3; ++i) {
+    edges.col(i) = s[v[i + 1]] - s[v[0]];
+    longest = std::max(longest, edges.col(i).norm());
+  }
+  cgal_->flat[t] = std::abs(edges.determinant()) < kFlatQuality * longest * longest * longest;
+  // Householder QR with full pivoting, as in the published method, on vertex-relative
+  // coordinates so that large coordinates do not cost precision.
+  const Eigen::FullPivHouseholderQR<Eigen::Matrix3d> qr(edges);
+  const Eigen::Matrix3d bary = qr.solve(Eigen::Matrix3d::Identity());
+  cgal_->bary[t] = bary;
+  // Fold the input -> source transform in: input point q lies at input_to_source * q.
+  LocatorTet& tet = geometry_[t];
+  tet.bary = bary * rot;
+  tet.v0 = source_to_input * s[v[0]];
+  // Rounding of the barycentric coordinates: the inverse's own (conditioning), that of
+  // subtracting coordinates of this magnitude, and that of v0, which came back from the
+  // source frame through the alignment (with the GNSS in UTM-size coordinates both are
+  // thousands of kilometres, and v0 keeps their rounding); 256 eps of all is a safe bound.
+  const double cond = edges.norm() * bary.norm();
+  const double back = s[v[0]].norm() + back_shift;
+  tet.tolerance = 256.0 * std::numeric_limits<double>::epsilon() *
+                  (cond + bary.norm() * (tet.v0.norm() + longest + back));
+}
+
+void RubberSheet::buildAffine() {
+  const Cgal& cgal = *cgal_;
+  const std::size_t n = tet_vertices_.size();
+  affine_.resize(n);
+  const Eigen::Matrix3d rot = input_to_source_.linear();
+  const Eigen::Vector3d shift = input_to_source_.translation();
+  parallelRanges(n, static_cast<std::size_t>(threadCount(0)), 0,
+                 [&](std::size_t, std::size_t begin, std::size_t end) {
+                   for (std::size_t t = begin; t < end; ++t) {
+                     const std::array<int, 4>& v = tet_vertices_[t];
+                     const auto& d = target_;
+                     Eigen::Matrix3d images;
+                     for (int i = 0; i < 3; ++i) images.col(i) = d[v[i + 1]] - d[v[0]];
+                     const Eigen::Matrix3d linear = images * cgal.bary[t];
+                     affine_[t].leftCols<3>() = linear * rot;
+                     affine_[t].col(3) = linear * (shift - source_[v[0]]) + d[v[0]];
+                   }
+                 });
+  replaceDegenerate(cgal.flat);
+}
+
+void RubberSheet::replaceDegenerate(const std::vector<char>& flat) {
   // A nearly flat tetrahedron has no reliable transform of its own; it holds almost no volume,
   // so it borrows the transform of the nearest solid tetrahedron across its faces.
   for (std::size_t t = 0; t < geometry_.size(); ++t) {
