@@ -12,7 +12,6 @@
 #include <limits>
 
 #include "cell_hash.h"
-#include "parallel.h"
 #include "sheet/tet_locator.h"
 
 namespace flexcloud {
@@ -154,10 +153,6 @@ void RubberSheet::buildGeometry() {
   Cgal& cgal = *cgal_;
   const auto& dt = cgal.dt;
   const auto n = static_cast<std::size_t>(dt.number_of_finite_cells());
-  std::vector<Cgal::Delaunay::Cell_handle> cells(n);
-  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
-    cells[static_cast<std::size_t>(c->info())] = c;
-  }
   geometry_.resize(n);
   tet_vertices_.resize(n);
   cgal.bary.resize(n);
@@ -165,20 +160,17 @@ void RubberSheet::buildGeometry() {
   const Eigen::Matrix3d rot = input_to_source_.linear();
   const Eigen::Isometry3d source_to_input = input_to_source_.inverse();
   const double back_shift = input_to_source_.translation().norm();
-  parallelRanges(n, static_cast<std::size_t>(threadCount(0)), 0,
-                 [&](std::size_t, std::size_t begin, std::size_t end) {
-                   for (std::size_t t = begin; t < end; ++t) {
-                     const auto& c = cells[t];
-                     std::array<int, 4>& v = tet_vertices_[t];
-                     LocatorTet& tet = geometry_[t];
-                     for (int i = 0; i < 4; ++i) {
-                       v[i] = c->vertex(i)->info();
-                       const auto nb = c->neighbor(i);
-                       tet.neighbour[i] = dt.is_infinite(nb) ? -1 : nb->info();
-                     }
-                     tetGeometry(t, rot, source_to_input, back_shift);
-                   }
-                 });
+  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
+    const auto t = static_cast<std::size_t>(c->info());
+    std::array<int, 4>& v = tet_vertices_[t];
+    LocatorTet& tet = geometry_[t];
+    for (int i = 0; i < 4; ++i) {
+      v[i] = c->vertex(i)->info();
+      const auto nb = c->neighbor(i);
+      tet.neighbour[i] = dt.is_infinite(nb) ? -1 : nb->info();
+    }
+    tetGeometry(t, rot, source_to_input, back_shift);
+  }
 }
 
 void RubberSheet::tetGeometry(std::size_t t, const Eigen::Matrix3d& rot,
@@ -217,18 +209,15 @@ void RubberSheet::buildAffine() {
   affine_.resize(n);
   const Eigen::Matrix3d rot = input_to_source_.linear();
   const Eigen::Vector3d shift = input_to_source_.translation();
-  parallelRanges(n, static_cast<std::size_t>(threadCount(0)), 0,
-                 [&](std::size_t, std::size_t begin, std::size_t end) {
-                   for (std::size_t t = begin; t < end; ++t) {
-                     const std::array<int, 4>& v = tet_vertices_[t];
-                     const auto& d = target_;
-                     Eigen::Matrix3d images;
-                     for (int i = 0; i < 3; ++i) images.col(i) = d[v[i + 1]] - d[v[0]];
-                     const Eigen::Matrix3d linear = images * cgal.bary[t];
-                     affine_[t].leftCols<3>() = linear * rot;
-                     affine_[t].col(3) = linear * (shift - source_[v[0]]) + d[v[0]];
-                   }
-                 });
+  for (std::size_t t = 0; t < n; ++t) {
+    const std::array<int, 4>& v = tet_vertices_[t];
+    const auto& d = target_;
+    Eigen::Matrix3d images;
+    for (int i = 0; i < 3; ++i) images.col(i) = d[v[i + 1]] - d[v[0]];
+    const Eigen::Matrix3d linear = images * cgal.bary[t];
+    affine_[t].leftCols<3>() = linear * rot;
+    affine_[t].col(3) = linear * (shift - source_[v[0]]) + d[v[0]];
+  }
   replaceDegenerate(cgal.flat);
 }
 
