@@ -2,7 +2,9 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iomanip>
@@ -70,6 +72,17 @@ json slamFailuresJson(const std::vector<FusionResult::SlamFailure>& runs) {
   return out;
 }
 
+/// How many poses the refinement by precise fixes turned in heading, and the largest turn.
+json headingsTurnedJson(const std::vector<double>& turn) {
+  std::size_t poses = 0;
+  double largest = 0.0;
+  for (double t : turn) {
+    poses += t != 0.0;
+    largest = std::max(largest, std::abs(t));
+  }
+  return {{"poses", poses}, {"largest_deg", largest * 180.0 / M_PI}};
+}
+
 json fusionJson(const FusionResult& f) {
   return {{"keyframes", f.keyframes},
           {"fixes_used", f.used},
@@ -104,7 +117,8 @@ json fusionJson(const FusionResult& f) {
             {"taken_back", f.follow.taken_back},
             {"kept_out_too_far", f.follow.locked},
             {"rejected", f.follow.rejected},
-            {"slam_failures_followed", slamFailuresJson(f.follow.slam_failures)}}},
+            {"slam_failures_followed", slamFailuresJson(f.follow.slam_failures)},
+            {"headings_turned", headingsTurnedJson(f.heading_turn)}}},
           {"stages", f.stages},
           {"solves", f.solves},
           {"seconds", f.seconds}};

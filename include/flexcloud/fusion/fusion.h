@@ -139,6 +139,9 @@ struct FusionResult {
   /// it (its shape there is no better than its position), how many poses moved by more than a
   /// millimetre, the largest move.
   std::vector<bool> jumped;
+  /// rad per pose, about ENU up: how far that refinement turned its heading with the path the
+  /// fixes moved it onto (0 where it did not; precise_follow.h).
+  std::vector<double> heading_turn;
   std::size_t detail_poses = 0;
   double detail_max_shift = 0.0;
   /// What that refinement learned: the fixes that took part, the SLAM's short-term error
