@@ -38,6 +38,7 @@ FusionResult Fusion::run(const Eigen::Isometry3d& T_enu_map) {
   solveStages();
   adaptSlamNoise();
   fitAntenna();
+  reviewHeadingProfile();
   restamp();
   holdClockWhereTheSpeedsDisagree();
   leaveOutHeights();

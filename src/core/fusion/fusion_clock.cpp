@@ -51,6 +51,24 @@ void Fusion::estimateClock() {
   dt_ = 0.0;
 }
 
+void Fusion::reviewHeadingProfile() {
+  if (!estimate_lever_ || !(options_.max_time_offset > 0.0) || !out_.clock.speed.observable) return;
+  // The course of the antenna, not of the poses' origin: an antenna L ahead turns its course by
+  // the turn rate times L / v, as a clock L / v late does (MulRan, 1.6 m ahead at 7 m/s: the
+  // heading profile 190-300 ms off without it, within 2-11 ms with it).
+  std::vector<GnssPoint> taking_part;
+  for (const auto& f : fixes_) taking_part.push_back(gnss_[f.input]);
+  const Vec3 antenna = options_.lever_arm + Vec3(lever_[0], lever_[1], 0.0);
+  ClockOffsetEstimate heading =
+      estimateHeadingOffset(poses_, antenna, taking_part, out_.clock.speed.offset);
+  if (std::abs(heading.offset) > options_.max_time_offset) heading.observable = false;
+  const ClockEstimate reviewed = combineClock(out_.clock.speed, heading);
+  // Only the profiles' word is renewed; how the offset was decided stands.
+  if (reviewed.observable != out_.clock.observable || reviewed.loose != out_.clock.loose) return;
+  out_.clock = reviewed;
+  clock_.sigma = reviewed.sigma;
+}
+
 void Fusion::restamp() {
   for (int round = 0; round < kRestampRounds; ++round) {
     if (!clock_.observable || !(std::abs(dt_) > kRestampTolerance)) break;

@@ -348,6 +348,9 @@ class Fusion {
   /// the track a clock offset moves the fixes as it does: only changes of speed tell them apart),
   /// and the stages solved again from the start with it; else the solution at 0 stands.
   void fitAntenna();
+  /// The heading profile again with the antenna's offset fitAntenna() estimated, and the
+  /// profiles' clock combined anew (the offset decided stays; its sigma is theirs).
+  void reviewHeadingProfile();
 
   /// The stages again from the rigid start and the std-devs' first guesses (the SLAM's noise
   /// and the antenna's offset as they stand).
