@@ -307,6 +307,12 @@ class Fusion {
   /// The fixes are restamped by it (shift_): every fix's factor is made at its instant on the
   /// SLAM's clock, and the fusion's own offset (dt_) is what remains.
   void estimateClock();
+  /// The GNSS of the fixes taking part, in their order.
+  std::vector<GnssPoint> fixesTakingPart() const;
+  /// The heading profile's offset with the antenna at `antenna` (body frame), searched from
+  /// `start`; not observable without max_time_offset or beyond it.
+  ClockOffsetEstimate headingProfile(const std::vector<GnssPoint>& fixes, const Vec3& antenna,
+                                     double start) const;
 
   /// The last solve, to the fine tolerance: the heading of the fused trajectory, which the
   /// points beside it carry into the map, converges last. The problem is kept for what is
