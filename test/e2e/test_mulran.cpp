@@ -121,9 +121,10 @@ TEST(MulranDrives, UrbanGnssIsBridgedAsRecorded) {
   }
 }
 
-/// The pose sigmas of every drive with GNSS of `kind`: pooled, 85 % to `most` of the poses within
-/// 2.45 sigma_h and 1.96 sigma_v, at least 75 % on every drive.
-void expectSigmasCover(const std::vector<std::string>& dirs, const char* kind, double most) {
+/// The pose sigmas of every drive with GNSS of `kind`: pooled, 85 % to `most_h` of the poses
+/// within 2.45 sigma_h and 85 % to `most_v` within 1.96 sigma_v, at least 75 % on every drive.
+void expectSigmasCover(const std::vector<std::string>& dirs, const char* kind, double most_h,
+                       double most_v) {
   std::vector<study::CalibrationRow> rows;
   sim::SigmaCoverage pooled;
   for (const auto& dir : dirs) {
@@ -137,30 +138,29 @@ void expectSigmasCover(const std::vector<std::string>& dirs, const char* kind, d
   }
   study::printCalibrationRows(rows);
   EXPECT_GE(pooled.shareH(), 0.85) << kind;
-  EXPECT_LE(pooled.shareH(), most) << kind;
+  EXPECT_LE(pooled.shareH(), most_h) << kind;
   EXPECT_GE(pooled.shareV(), 0.85) << kind;
-  EXPECT_LE(pooled.shareV(), most) << kind;
+  EXPECT_LE(pooled.shareV(), most_v) << kind;
 }
 
-// With RTK GNSS: 98.4 / 87.5 % pooled, 92.3-100 / 83.9-92.9 % per drive. The antenna's offset,
+// With RTK GNSS: 97.7 / 88.0 % pooled, 89.3-100 / 83.9-93.1 % per drive. The antenna's offset,
 // estimated, counts along the track with its own sigma and what it trades with the clock (0.08
 // m): without, KAIST_03 and Riverside_03 lay 60.7 and 52.1 % within.
 TEST(MulranDrives, PoseSigmasCoverTheErrorsWithRtkGnss) {
   const std::vector<std::string> dirs = test::findTruthDrives("mulran_lo", kDrives);
   SKIP_WITHOUT_DRIVES(dirs, "mulran_lo");
-  expectSigmasCover(dirs, "rtk", 0.99);
+  expectSigmasCover(dirs, "rtk", 0.99, 0.99);
 }
 
-// With urban GNSS (1 Hz, no std-dev): 98.1-100 / 98.7-100 % per drive, pooled 99.3 / 99.5 %:
-// more cautious than the 99 % aimed at. The antenna's offset, estimated, halved these drives'
-// errors and the sigmas, learned from the fixes' residuals about the result, did not follow as
-// far (median sigma 0.26-0.35 m but Riverside_02's 0.55). A lower weight of the walk where the
-// fixes are imprecise (1.1 for 1.25) moved it to 99.1 % only, one of the local mean residual
-// (0.75 for 0.95) to 99.0 %; neither was kept: the bound holds the figure recorded.
+// With urban GNSS (1 Hz, no std-dev): 96.9-100 / 98.6-100 % per drive, pooled 98.9 / 99.5 %.
+// Where the fixes are imprecise the horizontal walk counts unweighted (pose_sigma.cpp): with the
+// weight of precise fixes (1.25) 99.3 % lay within, more cautious than the 99 % aimed at.
+// Vertically still more cautious (median sigma 0.21-0.32 m horizontally, Riverside_02's 0.52,
+// where its odometry fails; RMSE 0.19-0.57 m, Riverside_02's 2.15).
 TEST(MulranDrives, PoseSigmasCoverTheErrorsWithUrbanGnss) {
   const std::vector<std::string> dirs = test::findTruthDrives("mulran_lo", kDrives);
   SKIP_WITHOUT_DRIVES(dirs, "mulran_lo");
-  expectSigmasCover(dirs, "urban", 0.996);
+  expectSigmasCover(dirs, "urban", 0.99, 0.996);
 }
 
 // The orientations with RTK GNSS against the truth. MulRan's truth is of the car's base, the
