@@ -26,7 +26,7 @@ const std::vector<std::string> kDrives = {"DCC_02",   "DCC_03",       "KAIST_02"
 // Honest RTK GNSS (2 cm, std-devs exactly right): the defaults' horizontal RMSE and MAX at most
 // fusion: false's plus 10 % plus 1 cm on every drive (0.027-0.099 m RMSE against 0.085-0.460),
 // at most 1 % of the fixes rejected, the first and last 20 s no worse than the middle, the clock
-// within 15 ms of the truth (0.7-12.3 ms). The truth, and so the GNSS, lies 1.5-1.7 m ahead of
+// within 15 ms of the truth (0.8-11.9 ms). The truth, and so the GNSS, lies 1.5-1.7 m ahead of
 // the SLAM's origin on these drives (MulRan's base frame, not its LiDAR): the antenna offset is
 // estimated (no lever arm is given), and the clock no longer trades with it (before: 0.064-0.153
 // m RMSE, the clock 4-20 ms off). The heading profile, taken again with that antenna, agrees with

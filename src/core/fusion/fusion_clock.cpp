@@ -70,9 +70,12 @@ void Fusion::reviewHeadingProfile() {
   const ClockOffsetEstimate heading =
       headingProfile(fixesTakingPart(), Vec3(lever_[0], lever_[1], 0.0), out_.clock.speed.offset);
   const ClockEstimate reviewed = combineClock(out_.clock.speed, heading);
-  // Only the profiles' word is renewed; how the offset was decided stands.
+  // The profiles' word is renewed, with it the offset the fit of positions is drawn to (the
+  // fit, far tighter, moves by a few tenths of a millisecond: KAIST_03 -12.3 -> -11.9 ms off
+  // the truth); how the offset was decided stands.
   if (reviewed.observable != out_.clock.observable || reviewed.loose != out_.clock.loose) return;
   out_.clock = reviewed;
+  if (!reviewed.loose) clock_.offset = reviewed.offset;
   clock_.sigma = reviewed.sigma;
 }
 
