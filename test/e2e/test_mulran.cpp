@@ -155,8 +155,8 @@ TEST(MulranDrives, PoseSigmasCoverTheErrorsWithRtkGnss) {
 // With urban GNSS (1 Hz, no std-dev): 96.9-100 / 98.6-100 % per drive, pooled 98.9 / 99.5 %.
 // Where the fixes are imprecise the horizontal walk counts unweighted (pose_sigma.cpp): with the
 // weight of precise fixes (1.25) 99.3 % lay within, more cautious than the 99 % aimed at.
-// Vertically still more cautious (median sigma 0.21-0.32 m horizontally, Riverside_02's 0.52,
-// where its odometry fails; RMSE 0.19-0.57 m, Riverside_02's 2.15).
+// Median sigma_h 0.21-0.31 m against an RMSE of 0.19-0.57 m (Riverside_02, whose odometry
+// fails: 0.52 against 2.15). Vertically still more cautious than 99 %.
 TEST(MulranDrives, PoseSigmasCoverTheErrorsWithUrbanGnss) {
   const std::vector<std::string> dirs = test::findTruthDrives("mulran_lo", kDrives);
   SKIP_WITHOUT_DRIVES(dirs, "mulran_lo");
