@@ -509,6 +509,23 @@ void warnSlamFailures(const FusionResult& f, std::vector<std::string>& out) {
   }
 }
 
+/// The runs of code-grade fixes at the drive's ends followed against the SLAM's shape
+/// (drive_ends.h), one warning each.
+void warnDriveEnds(const FusionResult& f, std::vector<std::string>& out) {
+  for (const FusionResult::SlamFailure& run : f.drive_ends_followed) {
+    std::ostringstream s;
+    s.setf(std::ios::fixed);
+    s.precision(1);
+    s << "SLAM at an end of the drive: from " << run.begin << " to " << run.end
+      << " s (SLAM clock) its shape lies " << run.worst << " m from the " << run.fixes
+      << " fixes there, which agree with each other within their noise (" << run.precision
+      << " m); nothing beyond them tells them wrong, so they were followed and the result eases "
+         "back onto the SLAM's shape at the next fix. Check the SLAM there (a LiDAR odometry "
+         "errs most in its first seconds)";
+    out.push_back(s.str());
+  }
+}
+
 /// The fixes that took part with their horizontal part alone, where at least kHeightFixes did:
 /// how many, the longest run of them among the fixes that took part, and how far their heights
 /// lie from the fused trajectory.
@@ -822,6 +839,7 @@ std::vector<std::string> stampedWarnings(const GeoreferenceResult& r, const Para
   }
   if (r.fusion) {
     warnSlamFailures(*r.fusion, out);
+    warnDriveEnds(*r.fusion, out);
     warnHeightsLeftOut(*r.fusion, out);
     warnRejectedStretches(*r.fusion, true, "", out);
     warnRejectedStretches(

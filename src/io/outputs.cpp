@@ -119,6 +119,7 @@ json fusionJson(const FusionResult& f) {
             {"rejected", f.follow.rejected},
             {"slam_failures_followed", slamFailuresJson(f.follow.slam_failures)},
             {"headings_turned", headingsTurnedJson(f.heading_turn)}}},
+          {"drive_ends_followed", slamFailuresJson(f.drive_ends_followed)},
           {"stages", f.stages},
           {"solves", f.solves},
           {"seconds", f.seconds}};

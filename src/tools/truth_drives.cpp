@@ -144,6 +144,16 @@ void scoreOrientations(const TruthDrive& d, const GeoreferenceResult& r, TruthSc
 
 }  // namespace
 
+std::string describeScore(const std::string& name, const TruthScore& s) {
+  char line[256];
+  std::snprintf(line, sizeof(line),
+                "%s: %.3f / %.3f m (first and last 20 s %.3f, elsewhere %.3f); %zu of %zu fixes "
+                "rejected, %zu of the %zu more than 3 m off",
+                name.c_str(), s.rmse, s.max, s.ends_max, s.middle_max, s.rejected, s.fixes,
+                s.far_rejected, s.far);
+  return line;
+}
+
 TruthScore scoreAgainstTruth(const TruthDrive& d, const GeoreferenceResult& r) {
   TruthScore s;
   const double first = d.input.poses.front().stamp, last = d.input.poses.back().stamp;

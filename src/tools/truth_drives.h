@@ -68,6 +68,9 @@ struct TruthScore {
   std::size_t fixes = 0, rejected = 0, far = 0, far_rejected = 0;
 };
 TruthScore scoreAgainstTruth(const TruthDrive& d, const GeoreferenceResult& r);
+/// One line of `s` for drive `name`: RMSE / MAX, the ends' MAX and the middle's, the fixes
+/// rejected.
+std::string describeScore(const std::string& name, const TruthScore& s);
 
 /// A result's pose sigmas against the drive's truth (sim::sigmaCoverage).
 sim::SigmaCoverage sigmaCoverage(const TruthDrive& d, const GeoreferenceResult& r);

@@ -127,11 +127,7 @@ TEST(TruthDrives, UrbanGnssIsBridged) {
     const study::TruthDrive d = study::loadTruthDrive(dir, "urban");
     const GeoreferenceResult r = georeference(d.input, Params{});
     const study::TruthScore s = study::scoreAgainstTruth(d, r);
-    std::printf(
-        "%s: %.3f / %.3f m (ends %.3f, elsewhere %.3f); %zu of %zu fixes rejected, %zu of "
-        "the %zu more than 3 m off\n",
-        d.name.c_str(), s.rmse, s.max, s.ends_max, s.middle_max, s.rejected, s.fixes,
-        s.far_rejected, s.far);
+    std::printf("%s\n", study::describeScore(d.name, s).c_str());
     const bool worst = d.name == "02 urban";
     EXPECT_LE(s.rmse, worst ? 0.42 : 0.40) << d.name;
     EXPECT_LE(s.max, 1.5) << d.name;

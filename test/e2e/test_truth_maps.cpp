@@ -172,7 +172,7 @@ TEST(TruthMaps, TheFloorOfAPlainMapKnownAnswers) {
 // is 0.73-1.88 m off horizontally, where the map rebuilt from its points' time is 0.08-0.23 m.
 // The sheet lies above that floor (3.0-9.2 m). Held: the floor at least twice the rebuilt map's.
 // Their point sigmas hold 85-99 % within 2.45 sigma_h in each band, the mean of the drives' shares
-// (the sheet's map 98.9 / 96.0 / 92.7 %, the rebuilt map's 98.7 / 97.6 / 96.1 %). The truth's
+// (the sheet's map 98.8 / 95.8 / 92.5 %, the rebuilt map's 98.3 / 97.4 / 96.0 %). The truth's
 // scans are placed by the LiDAR's true pose (the base's turned by study::knownMount). The told
 // error of the rebuilt map is up to 4.1 times its RMSE (DCC_02 near the route): it starts from
 // the pose sigmas, 2.5 times the trajectory's RMSE there, the antenna's 8 cm along the track that

@@ -170,6 +170,11 @@ struct FusionResult {
     std::size_t rejected = 0;
     std::vector<SlamFailure> slam_failures;
   } follow;
+  /// The runs of code-grade fixes at the drive's first or last fixes that were followed against
+  /// the SLAM's shape (drive_ends.h): their first and last fix's instant (SLAM clock, s), how
+  /// many, how far the result lay from them before (m, their mean error) and their white noise
+  /// (m, horizontal 1-sigma as weighed).
+  std::vector<SlamFailure> drive_ends_followed;
   std::size_t keyframes = 0;
   std::size_t used = 0;
   std::size_t heights_left_out = 0;  ///< of those used, those with their horizontal part alone

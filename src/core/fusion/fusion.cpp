@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <chrono>
 
+#include "flexcloud/fusion/drive_ends.h"
 #include "flexcloud/fusion/precise_follow.h"
 #include "flexcloud/fusion/slam_jitter.h"
 #include "flexcloud/input/trajectory.h"
@@ -218,6 +219,7 @@ FusionResult fuseTrajectory(const Trajectory& poses, const std::vector<GnssPoint
     out = fusion_graph::Fusion(poses, gnss, options, cancel, fit).run(T_enu_map);
   }
   followPreciseGnss(out, FollowOptions{});
+  followTheDrivesEnds(out);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }
