@@ -42,31 +42,58 @@ std::size_t leadingRun(const FusionResult& f, const std::vector<std::size_t>& or
   return n;
 }
 
+/// A run at an end: what it tells (FusionResult::drive_ends_followed) and its mean horizontal
+/// error from the result.
+struct EndRun {
+  FusionResult::SlamFailure told;
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+};
+
 /// The run's mean horizontal error and its horizontal 1-sigma (the root mean of the fixes'
 /// variances as weighed), where its errors agree with each other; nothing where they do not.
-std::optional<FusionResult::SlamFailure> agreeingRun(const FusionResult& f,
-                                                     const std::vector<std::size_t>& run) {
-  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+std::optional<EndRun> agreeingRun(const FusionResult& f, const std::vector<std::size_t>& run) {
+  EndRun out;
   double var = 0.0;
   for (std::size_t j : run) {
-    mean += f.fixes[j].error.head<2>();
+    out.mean += f.fixes[j].error.head<2>();
     var += std::pow(f.fixes[j].weighedSigma().x(), 2);
   }
   const auto n = static_cast<double>(run.size());
-  mean /= n;
-  var /= n;
+  out.mean /= n;
   double scatter = 0.0;  // in the fixes' own variances, both axes
   for (std::size_t j : run) {
-    scatter += (f.fixes[j].error.head<2>() - mean).squaredNorm() /
+    scatter += (f.fixes[j].error.head<2>() - out.mean).squaredNorm() /
                std::pow(f.fixes[j].weighedSigma().x(), 2);
   }
   if (!(scatter <= kAgree * 2.0 * (n - 1.0))) return std::nullopt;
-  FusionResult::SlamFailure out;
-  out.worst = mean.norm();
-  out.precision = std::sqrt(var);
-  out.fixes = run.size();
-  out.claimed = false;
+  out.told.worst = out.mean.norm();
+  out.told.precision = std::sqrt(var / n);
+  out.told.fixes = run.size();
+  out.told.claimed = false;
   return out;
+}
+
+/// Every pose moved by `mean`: in full up to `at_run` (SLAM clock), not at all from
+/// `at_followed` on (either side of it), linearly between.
+void movePoses(Trajectory& poses, const Eigen::Vector2d& mean, double at_run, double at_followed) {
+  for (Pose& p : poses) {
+    const double u = (at_followed - p.stamp) / (at_followed - at_run);
+    const double w = std::clamp(std::isfinite(u) ? u : 0.0, 0.0, 1.0);
+    p.position.head<2>() += w * mean;
+  }
+}
+
+/// The run's fixes used, their errors from the poses moved by `mean`.
+void takeIn(FusionResult& f, const std::vector<std::size_t>& run, const Eigen::Vector2d& mean) {
+  for (std::size_t j : run) {
+    FixOutcome& o = f.fixes[j];
+    o.error.head<2>() -= mean;
+    o.residual = o.error.norm();
+    o.weight = 1.0;
+    o.verdict = FixVerdict::kUsed;
+  }
+  f.used += run.size();
+  f.outliers -= run.size();
 }
 
 /// Follows the run of `order`'s first fixes where it is one (see drive_ends.h). `order` runs
@@ -75,31 +102,16 @@ void followEnd(FusionResult& f, const std::vector<std::size_t>& order) {
   const std::size_t n = leadingRun(f, order);
   if (n < kEndFixes || n >= order.size()) return;
   const std::vector<std::size_t> run(order.begin(), order.begin() + static_cast<long>(n));
-  std::optional<FusionResult::SlamFailure> followed = agreeingRun(f, run);
-  if (!followed) return;
-  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-  for (std::size_t j : run) mean += f.fixes[j].error.head<2>();
-  mean /= static_cast<double>(n);
-  // From the run's last fix (inwards) to the first the result follows: eased from all to none.
+  std::optional<EndRun> end = agreeingRun(f, run);
+  if (!end) return;
+  // From the run's innermost fix to the first the result follows: eased from all to none.
   const double at_run = f.fixes[run.back()].stamp + f.time_offset;
-  const double at_followed = f.fixes[order[n]].stamp + f.time_offset;
-  for (Pose& p : f.poses) {
-    const double u = (at_followed - p.stamp) / (at_followed - at_run);
-    const double w = std::clamp(std::isfinite(u) ? u : 0.0, 0.0, 1.0);
-    p.position.head<2>() += w * mean;
-  }
-  for (std::size_t j : run) {
-    FixOutcome& o = f.fixes[j];
-    o.error.head<2>() -= mean;
-    o.residual = o.error.norm();
-    o.weight = 1.0;
-    o.verdict = FixVerdict::kUsed;
-  }
-  followed->begin = std::min(at_run, f.fixes[run.front()].stamp + f.time_offset);
-  followed->end = std::max(at_run, f.fixes[run.front()].stamp + f.time_offset);
-  f.drive_ends_followed.push_back(*followed);
-  f.used += n;
-  f.outliers -= n;
+  const double at_outer = f.fixes[run.front()].stamp + f.time_offset;
+  movePoses(f.poses, end->mean, at_run, f.fixes[order[n]].stamp + f.time_offset);
+  takeIn(f, run, end->mean);
+  end->told.begin = std::min(at_run, at_outer);
+  end->told.end = std::max(at_run, at_outer);
+  f.drive_ends_followed.push_back(end->told);
 }
 
 }  // namespace
