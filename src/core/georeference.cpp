@@ -372,13 +372,9 @@ struct RejectedStretch {
 constexpr std::size_t kHeightFixes = 3;
 
 /// The fixes that took part in the fusion or were rejected by it, by stamp.
-std::vector<const FixOutcome*> judgedByStamp(const FusionResult& f) {
+std::vector<const FixOutcome*> judgedFixes(const FusionResult& f) {
   std::vector<const FixOutcome*> fixes;
-  for (const auto& o : f.fixes) {
-    if (o.verdict == FixVerdict::kUsed || o.verdict == FixVerdict::kOutlier) fixes.push_back(&o);
-  }
-  std::sort(fixes.begin(), fixes.end(),
-            [](const FixOutcome* a, const FixOutcome* b) { return a->stamp < b->stamp; });
+  for (std::size_t j : judgedByStamp(f)) fixes.push_back(&f.fixes[j]);
   return fixes;
 }
 
@@ -389,7 +385,7 @@ std::vector<const FixOutcome*> judgedByStamp(const FusionResult& f) {
 std::vector<RejectedStretch> rejectedStretches(const FusionResult& f, bool given) {
   constexpr double kRtkStd = 0.05, kStretchSeconds = 3.0;
   constexpr std::size_t kStretchFixes = 5;
-  const std::vector<const FixOutcome*> fixes = judgedByStamp(f);
+  const std::vector<const FixOutcome*> fixes = judgedFixes(f);
   std::vector<RejectedStretch> out;
   RejectedStretch run;
   auto close = [&] {
@@ -533,7 +529,7 @@ void warnHeightsLeftOut(const FusionResult& f, std::vector<std::string>& out) {
   if (f.heights_left_out < kHeightFixes) return;
   double worst = 0.0, begin = 0.0, end = 0.0, run_begin = 0.0;
   std::size_t longest = 0, run = 0;
-  for (const FixOutcome* o : judgedByStamp(f)) {
+  for (const FixOutcome* o : judgedFixes(f)) {
     if (!o->height_left_out) {
       run = 0;
       continue;

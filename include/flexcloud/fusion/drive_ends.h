@@ -8,8 +8,9 @@
 // in the middle).
 //
 // Where the first (or last) fixes that took part are a run of code-grade fixes the graph
-// rejected (at least kEndFixes; fixes claiming RTK precision are the refinement's,
-// precise_follow.h) whose errors from the result agree with each other within their noise,
+// rejected (at least kEndFixes; fixes as precise as the refinement takes, by their own std-dev
+// or the measured noise of fixes without one, are its: precise_follow.h) whose errors from the
+// result agree with each other within their noise,
 // the poses up to the run's last fix move by the run's mean error, eased to none at the first
 // fix the result follows; the run's fixes are used.
 

@@ -206,10 +206,13 @@ struct FusionOptions {
   int threads = 0;                         ///< solver threads; 0: all cores
 };
 
+/// The indices of the fixes of `f` that took part in the fusion (used or rejected), by stamp.
+std::vector<std::size_t> judgedByStamp(const FusionResult& f);
+
 /// Fuses `poses` (SLAM, map frame, sorted by stamp) with `gnss` (ENU, sorted by stamp, std-dev
 /// NaN where not given), starting from the rigid alignment T_enu_map, then refines it by the
-/// precise fixes (followPreciseGnss). Throws Error when fewer than 3 fixes can take part, or
-/// when cancelled.
+/// precise fixes (followPreciseGnss) and follows the drive's ends (followTheDrivesEnds). Throws
+/// Error when fewer than 3 fixes can take part, or when cancelled.
 FusionResult fuseTrajectory(const Trajectory& poses, const std::vector<GnssPoint>& gnss,
                             const Eigen::Isometry3d& T_enu_map, const FusionOptions& options,
                             const CancelToken& cancel = neverCancelled());

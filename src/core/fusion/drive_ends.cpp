@@ -5,40 +5,29 @@
 #include <optional>
 #include <vector>
 
+#include "flexcloud/fusion/precise_follow.h"
+#include "follow_series.h"
+
 namespace flexcloud {
 namespace {
 
 /// Fewer rejected fixes at an end are outliers like any other.
 constexpr std::size_t kEndFixes = 3;
-/// m: fixes whose own horizontal std-dev is at most this are the refinement's
-/// (FollowOptions::max_std), which judges them by their own evidence.
-constexpr double kPreciseStd = 0.1;
 /// The run's errors agree with each other where their mean square about their mean is at most
 /// this many times their own variance (per axis).
 constexpr double kAgree = 2.0;
 
-/// The fixes that took part (used or rejected), by stamp.
-std::vector<std::size_t> takingPart(const FusionResult& f) {
-  std::vector<std::size_t> out;
-  for (std::size_t j = 0; j < f.fixes.size(); ++j) {
-    const FixVerdict v = f.fixes[j].verdict;
-    if (v == FixVerdict::kUsed || v == FixVerdict::kOutlier) out.push_back(j);
-  }
-  std::stable_sort(out.begin(), out.end(), [&](std::size_t a, std::size_t b) {
-    return f.fixes[a].stamp < f.fixes[b].stamp;
-  });
-  return out;
-}
-
-bool codeGradeRejected(const FixOutcome& o) {
+/// Rejected, and not the refinement's (precise_follow.h): the fixes it takes, within
+/// FollowOptions::max_std, it judges by their own evidence.
+bool codeGradeRejected(const FusionResult& f, const FixOutcome& o) {
   return o.verdict == FixVerdict::kOutlier && o.error.allFinite() &&
-         o.std_dev.head<2>().maxCoeff() > kPreciseStd;
+         follow::ownStd(f, o).x() > FollowOptions{}.max_std;
 }
 
 /// How many of `order`'s first fixes are code-grade and rejected.
 std::size_t leadingRun(const FusionResult& f, const std::vector<std::size_t>& order) {
   std::size_t n = 0;
-  while (n < order.size() && codeGradeRejected(f.fixes[order[n]])) ++n;
+  while (n < order.size() && codeGradeRejected(f, f.fixes[order[n]])) ++n;
   return n;
 }
 
@@ -118,7 +107,7 @@ void followEnd(FusionResult& f, const std::vector<std::size_t>& order) {
 
 void followTheDrivesEnds(FusionResult& f) {
   f.drive_ends_followed.clear();
-  std::vector<std::size_t> order = takingPart(f);
+  std::vector<std::size_t> order = judgedByStamp(f);
   followEnd(f, order);
   std::reverse(order.begin(), order.end());
   followEnd(f, order);

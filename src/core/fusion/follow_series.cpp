@@ -32,12 +32,6 @@ double pathAt(const Trajectory& poses, const std::vector<double>& s, double t, s
   return (1.0 - u) * s[k] + u * s[k + 1];
 }
 
-/// The std-dev a fix counts with: its own, or the white noise of fixes without one.
-Vec3 ownStd(const FusionResult& f, const FixOutcome& x) {
-  if (x.std_given || !f.unknown_white.allFinite()) return x.std_dev;
-  return Vec3(f.unknown_white.x(), f.unknown_white.x(), f.unknown_white.y());
-}
-
 /// Normalised |third divided differences| of a series (white noise of 1-sigma s gives s);
 /// NaN where four stamps do not increase.
 std::vector<Vec3> thirdDifferences(const std::vector<Vec3>& x, const std::vector<double>& t) {
@@ -59,6 +53,11 @@ double roughAround(const std::vector<Vec3>& d, std::size_t lo, std::size_t hi) {
 }
 
 }  // namespace
+
+Vec3 ownStd(const FusionResult& f, const FixOutcome& x) {
+  if (x.std_given || !f.unknown_white.allFinite()) return x.std_dev;
+  return Vec3(f.unknown_white.x(), f.unknown_white.x(), f.unknown_white.y());
+}
 
 void Series::add(const Series& from, std::size_t j) {
   r.push_back(from.r[j]);
@@ -87,16 +86,12 @@ Pose poseAt(const Trajectory& poses, double t, std::size_t& k) {
 Series gather(const FusionResult& f, const FollowOptions& o) {
   std::vector<std::size_t> order;
   const double first = f.poses.front().stamp, last = f.poses.back().stamp;
-  for (std::size_t j = 0; j < f.fixes.size(); ++j) {
+  for (std::size_t j : judgedByStamp(f)) {
     const FixOutcome& x = f.fixes[j];
-    if (x.verdict != FixVerdict::kUsed && x.verdict != FixVerdict::kOutlier) continue;
     if (!(ownStd(f, x).x() <= o.max_std)) continue;
     const double t = x.stamp + f.time_offset;
     if (t >= first && t <= last) order.push_back(j);
   }
-  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-    return f.fixes[a].stamp < f.fixes[b].stamp;
-  });
   // The stamps of the fixes that claimed less than max_std (a float solution, a receiver that
   // knows it is off): where one lies between two fixes of the series, its status changed.
   std::vector<double> worse;

@@ -43,6 +43,10 @@ struct Series {
 /// calls with rising t): positions linear, orientations slerp.
 Pose poseAt(const Trajectory& poses, double t, std::size_t& k);
 
+/// The std-dev a fix counts with in the refinement: its own, or the white noise of fixes
+/// without one (FusionResult::unknown_white).
+Vec3 ownStd(const FusionResult& f, const FixOutcome& x);
+
 /// The fixes the fusion judged (used or outlier) within the poses' span whose own horizontal
 /// std-dev is within max_std; a fix without a std-dev counts with the white noise of such
 /// fixes (FusionResult::unknown_white), not the fusion's estimate, which holds what the

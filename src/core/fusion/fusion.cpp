@@ -204,6 +204,18 @@ std::string toString(FixVerdict v) {
   return "?";
 }
 
+std::vector<std::size_t> judgedByStamp(const FusionResult& f) {
+  std::vector<std::size_t> out;
+  for (std::size_t j = 0; j < f.fixes.size(); ++j) {
+    const FixVerdict v = f.fixes[j].verdict;
+    if (v == FixVerdict::kUsed || v == FixVerdict::kOutlier) out.push_back(j);
+  }
+  std::stable_sort(out.begin(), out.end(), [&](std::size_t a, std::size_t b) {
+    return f.fixes[a].stamp < f.fixes[b].stamp;
+  });
+  return out;
+}
+
 FusionResult fuseTrajectory(const Trajectory& poses, const std::vector<GnssPoint>& gnss,
                             const Eigen::Isometry3d& T_enu_map, const FusionOptions& options,
                             const CancelToken& cancel) {
